@@ -1,0 +1,5 @@
+import sys
+
+from fluidswarm.cli import main
+
+sys.exit(main())

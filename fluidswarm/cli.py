@@ -1,0 +1,63 @@
+"""The `fluidswarm` console command.
+
+Each subcommand lives next to the code it drives and exposes `register(subparsers)`; this module only
+collects them, so teams can add commands without touching one another's files. Errors the user can fix
+are raised as `UserError` and printed as one line (exit 1); argparse usage errors exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from fluidswarm.errors import UserError
+
+# Modules that contribute subcommands, in the order they appear in `--help`.
+COMMAND_MODULES = (
+    "fluidswarm.simulate",
+    "agent.commands",
+    "perception.commands",
+    "coordinator.commands",
+    "fluidswarm.recording.commands",
+    "fluidswarm.scenario_commands",
+    "fluidswarm.bench",
+    "fluidswarm.router",
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="fluidswarm", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name:  # that part of the product is not built yet
+                continue
+            raise
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UserError as exc:
+        print(f"fluidswarm {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"fluidswarm {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
