@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/fluidswarm demo
+	$(BIN)/fluidswarm simulate --out out/demo.png
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q tests

@@ -1,0 +1,17 @@
+"""Pure SPH physics (thesis ch. 3 and 6): arrays in, arrays out; no I/O, no globals.
+
+The agent process and the centralised reference solvers call these same functions.
+"""
+
+from agent.sph.equations import (
+    artificial_viscosity, body_force, density, density_terms, momentum_terms, stress_rate_terms, tait_pressure,
+)
+from agent.sph.kernel import gaussian_kernel, kernel_gradient
+from agent.sph.params import SPHParams
+from agent.sph.particle import FIELD_NAMES, NFIELDS, Control, initial_state, step_particle
+
+__all__ = [
+    "SPHParams", "Control", "NFIELDS", "FIELD_NAMES", "initial_state", "step_particle",
+    "gaussian_kernel", "kernel_gradient", "density", "density_terms", "tait_pressure",
+    "artificial_viscosity", "stress_rate_terms", "momentum_terms", "body_force",
+]
