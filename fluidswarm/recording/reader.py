@@ -1,0 +1,266 @@
+"""Read a run's MCAP back into arrays (`load_run`) and verify that nothing was lost (`check`).
+
+Completeness: for every step, the file holds the state of every agent alive at that step. An agent is
+alive from its `started` event (or from the first step if it has none) until its `died` event; an
+event with a `step` holds from that step on, otherwise it holds for steps at times >= the event's time.
+The roster is every id seen in a state or an event, plus `agent_ids` from the run metadata if present.
+Steps are the recorded ones plus any gap between the first and the last (a lost step misses every agent
+alive then).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+
+from fluidswarm.errors import UserError
+from fluidswarm.geometry import ImageToDomain
+from fluidswarm.recording import schemas as sc
+from fluidswarm.recording.writer import JSON_KEYS
+
+_MAGIC = b"\x89MCAP0\r\n"
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The alive particles of one step, one row each."""
+
+    step: int
+    t: float
+    ids: np.ndarray  # (N,) int64
+    positions: np.ndarray  # (N, 2)
+    velocities: np.ndarray  # (N, 2)
+    density: np.ndarray  # (N,)
+    pressure: np.ndarray  # (N,)
+    class_ids: np.ndarray  # (N,) int64
+
+
+@dataclass(frozen=True)
+class Event:
+    t: float
+    level: int
+    name: str
+    message: str
+    kind: str | None
+    agent: int | None
+    step: int | None
+
+
+@dataclass(frozen=True)
+class Scene:
+    t: float
+    waypoints: list[tuple[float, float, float]]  # (x, y, r)
+    ellipses: list[tuple[float, float, float, float, float]]  # (x, y, major, minor, angle_deg)
+
+
+@dataclass(frozen=True)
+class Target:
+    t: float
+    mask: np.ndarray  # bool, image pixels
+    transform: ImageToDomain
+
+
+@dataclass(frozen=True)
+class Image:
+    t: float
+    frame_id: str
+    format: str
+    data: bytes
+
+
+@dataclass
+class Run:
+    path: Path
+    name: str
+    metadata: dict  # the `run` metadata record, JSON values decoded
+    frames: list[Frame] = field(default_factory=list)  # sorted by step
+    events: list[Event] = field(default_factory=list)
+    commands: list[tuple[float, dict]] = field(default_factory=list)
+    scenes: list[Scene] = field(default_factory=list)
+    images: list[Image] = field(default_factory=list)
+    targets: list[Target] = field(default_factory=list)
+    schemas: dict[str, str] = field(default_factory=dict)  # topic -> schema name
+
+    @property
+    def steps(self) -> np.ndarray:
+        return np.array([f.step for f in self.frames], dtype=np.int64)
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.array([f.t for f in self.frames], dtype=float)
+
+    @property
+    def target(self) -> Target | None:
+        """The last target written (the one the final formation is judged against)."""
+        return self.targets[-1] if self.targets else None
+
+    def scene_at(self, t: float) -> Scene | None:
+        """The latest scene written at or before time t."""
+        best = None
+        for s in self.scenes:
+            if s.t <= t:
+                best = s
+        return best
+
+
+def decode_metadata(values: dict[str, str]) -> dict:
+    json_keys = set(json.loads(values.get(JSON_KEYS, "[]")))
+    return {k: (json.loads(v) if k in json_keys else v) for k, v in values.items() if k != JSON_KEYS}
+
+
+def _decode_points(msg: dict) -> np.ndarray:
+    """The packed `data` of a foxglove.PointCloud as a structured array, using the message's own fields."""
+    fields = msg["fields"]
+    dtype = np.dtype({
+        "names": [f["name"] for f in fields],
+        "formats": [sc.NUMERIC_DTYPE[f["type"]] for f in fields],
+        "offsets": [f["offset"] for f in fields],
+        "itemsize": msg["point_stride"],
+    })
+    return np.frombuffer(base64.b64decode(msg["data"]), dtype=dtype)
+
+
+def _frame(msg: dict, log_time: int, sequence: int) -> Frame:
+    pts = _decode_points(msg)
+    step = msg.get(sc.EXTRA_KEY, {}).get("step", sequence)
+    return Frame(
+        step=int(step), t=log_time / 1e9, ids=pts["id"].astype(np.int64),
+        positions=np.stack([pts["x"], pts["y"]], axis=1).astype(float),
+        velocities=np.stack([pts["vx"], pts["vy"]], axis=1).astype(float),
+        density=pts["rho"].astype(float), pressure=pts["p"].astype(float), class_ids=pts["class"].astype(np.int64),
+    )
+
+
+def _open_checked(path: Path):
+    if not path.is_file():
+        raise UserError(f"{path}: no such file")
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(len(_MAGIC))
+        fh.seek(max(0, size - len(_MAGIC)))
+        tail = fh.read(len(_MAGIC))
+    if head != _MAGIC:
+        raise UserError(f"{path}: not an MCAP file")
+    if tail != _MAGIC or size < 2 * len(_MAGIC):
+        raise UserError(f"{path}: truncated MCAP file (no footer; the recorder did not finish it)")
+    return open(path, "rb")
+
+
+def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
+    """Read the whole run. Raises UserError naming the file if it is missing, not MCAP, or damaged."""
+    path = Path(path)
+    with _open_checked(path) as fh:
+        try:
+            return _read(path, make_reader(fh), images)
+        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+
+
+def _read(path: Path, reader, want_images: bool) -> Run:
+    summary = reader.get_summary()
+    if summary is None:
+        raise ValueError("no summary section")
+    metadata, target_meta = {}, {}
+    for record in reader.iter_metadata():
+        if record.name == "run":
+            metadata = decode_metadata(record.metadata)
+        elif record.name.startswith("target/"):
+            target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
+    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata)
+    for att in reader.iter_attachments():
+        meta = target_meta.get(att.name)
+        if meta is None:
+            continue
+        mask = cv2.imdecode(np.frombuffer(att.data, np.uint8), cv2.IMREAD_GRAYSCALE)
+        if mask is None:
+            raise ValueError(f"attachment {att.name} is not a PNG")
+        tf = ImageToDomain(scale=float(meta["scale"]), x0=float(meta["x0"]), y0=float(meta["y0"]))
+        run.targets.append(Target(t=float(meta["t"]), mask=mask > 0, transform=tf))
+    run.targets.sort(key=lambda tg: tg.t)
+
+    for schema, channel, message in reader.iter_messages():
+        leaf = channel.topic.split("/", 2)[-1] if channel.topic.startswith("fluidswarm/") else channel.topic
+        run.schemas[channel.topic] = schema.name if schema else ""
+        if leaf == sc.IMAGE and not want_images:
+            continue
+        msg = json.loads(message.data)
+        t = message.log_time / 1e9
+        if leaf == sc.STATE:
+            run.frames.append(_frame(msg, message.log_time, message.sequence))
+        elif leaf == sc.EVENTS:
+            extra = msg.get(sc.EXTRA_KEY, {})
+            run.events.append(Event(t=t, level=int(msg.get("level", 0)), name=msg.get("name", ""),
+                                    message=msg.get("message", ""), kind=extra.get("kind"),
+                                    agent=extra.get("agent"), step=extra.get("step")))
+        elif leaf == sc.SCENE:
+            extra = msg.get(sc.EXTRA_KEY)
+            if extra is not None:  # target outlines carry no waypoints/ellipses
+                run.scenes.append(Scene(t=t, waypoints=[tuple(w) for w in extra.get("waypoints", [])],
+                                        ellipses=[tuple(e) for e in extra.get("ellipses", [])]))
+        elif leaf == sc.COMMAND:
+            run.commands.append((t, msg))
+        elif leaf == sc.IMAGE:
+            run.images.append(Image(t=t, frame_id=msg.get("frame_id", ""), format=msg.get("format", ""),
+                                    data=base64.b64decode(msg.get("data", ""))))
+    run.frames.sort(key=lambda f: f.step)
+    return run
+
+
+@dataclass(frozen=True)
+class Completeness:
+    complete: bool
+    steps: int  # recorded steps
+    missing_states: int  # (step, alive agent) pairs with no state, lost steps included
+
+    def lines(self) -> str:
+        return f"complete={'true' if self.complete else 'false'}\nsteps={self.steps}\nmissing_states={self.missing_states}"
+
+
+def completeness(run: Run) -> Completeness:
+    """Apply the completeness rule (module docstring) to a loaded run."""
+    if not run.frames:
+        return Completeness(complete=False, steps=0, missing_states=0)
+    rec_steps, rec_times = run.steps, run.times
+    all_steps = np.arange(rec_steps.min(), rec_steps.max() + 1)
+    all_times = np.interp(all_steps, rec_steps, rec_times)  # times of lost steps, interpolated
+    present: dict[int, set[int]] = {}
+    for f in run.frames:
+        present.setdefault(f.step, set()).update(f.ids.tolist())
+
+    roster = set().union(*present.values())
+    roster.update(int(a) for a in run.metadata.get("agent_ids", []))
+    start: dict[int, np.ndarray] = {}  # agent -> steps at or after its start
+    end: dict[int, np.ndarray] = {}  # agent -> steps before its death
+    for ev in run.events:
+        if ev.agent is None or ev.kind not in ("started", "died"):
+            continue
+        holds = all_steps >= ev.step if ev.step is not None else all_times >= ev.t
+        roster.add(ev.agent)
+        if ev.kind == "started":
+            start[ev.agent] = start.get(ev.agent, True) & holds
+        else:
+            end[ev.agent] = end.get(ev.agent, True) & ~holds
+
+    missing = 0
+    for agent in roster:
+        alive = start.get(agent, True) & end.get(agent, True)
+        for k in np.nonzero(np.broadcast_to(alive, all_steps.shape))[0]:
+            s = int(all_steps[k])
+            if agent not in present.get(s, ()):
+                missing += 1
+    return Completeness(complete=missing == 0, steps=len(present), missing_states=missing)
+
+
+def check(path: str | os.PathLike) -> tuple[bool, int, int]:
+    """(complete, steps, missing_states) of the run at `path`; see the module docstring."""
+    c = completeness(load_run(path, images=False))
+    return c.complete, c.steps, c.missing_states

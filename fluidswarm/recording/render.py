@@ -1,0 +1,145 @@
+"""Pictures of a run: formation frames (target silhouette, particles by class, waypoints, ellipses) and
+the analysis plots. Matplotlib's object API with the Agg canvas (no pyplot state); images are saved with
+Pillow (PNG, animated GIF)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Ellipse
+from PIL import Image
+
+from fluidswarm.recording import schemas as sc
+from fluidswarm.recording.analysis import Series
+from fluidswarm.recording.reader import Frame, Run, Scene, Target
+
+SNAPSHOT_SIZE = (640, 640)  # width, height in pixels
+GIF_SIZE = (480, 480)
+PLOT_SIZE = (800, 500)
+_DPI = 100
+
+
+def domain_extent(run: Run, margin: float = 0.05) -> tuple[float, float, float, float]:
+    """(xmin, xmax, ymin, ymax): metadata `domain` if recorded, else what the particles and target span."""
+    dom = run.metadata.get("domain")
+    if isinstance(dom, (list, tuple)) and len(dom) == 4:
+        return tuple(float(v) for v in dom)
+    pts = [f.positions for f in run.frames if len(f.positions)]
+    for tg in run.targets:
+        rows, cols = tg.mask.shape
+        pts.append(tg.transform.to_domain(np.array([[0, 0], [cols, rows]], dtype=float)))
+    if not pts:
+        return (0.0, 1.0, 0.0, 1.0)
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    half = max(float((hi - lo).max()) / 2 * (1 + margin), 1e-6)
+    c = (lo + hi) / 2
+    return (c[0] - half, c[0] + half, c[1] - half, c[1] + half)
+
+
+def _figure(size: tuple[int, int]) -> tuple[Figure, FigureCanvasAgg]:
+    fig = Figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
+    return fig, FigureCanvasAgg(fig)
+
+
+class FormationRenderer:
+    """Draws frames of one run on one reused figure of `size` pixels; `render` returns an RGB array."""
+
+    def __init__(self, run: Run, size: tuple[int, int]):
+        self.fig, self.canvas = _figure(size)
+        self.ax = self.fig.add_axes((0.1, 0.08, 0.85, 0.85))
+        xmin, xmax, ymin, ymax = domain_extent(run)
+        self.ax.set_xlim(xmin, xmax)
+        self.ax.set_ylim(ymin, ymax)
+        self.ax.set_aspect("equal")
+        self.ax.set_xlabel("x [m]")
+        self.ax.set_ylabel("y [m]")
+        self._target_img = None
+        self._target: Target | None = None
+        self._run = run
+        self._scatter = self.ax.scatter([], [], s=12, zorder=3)
+        self._patches: list = []
+        self._title = self.ax.set_title("")
+
+    def _set_target(self, tg: Target | None) -> None:
+        if tg is self._target:
+            return
+        self._target = tg
+        if self._target_img is not None:
+            self._target_img.remove()
+            self._target_img = None
+        if tg is not None:
+            rows, cols = tg.mask.shape
+            (x0, y1), (x1, y0) = tg.transform.to_domain(np.array([[0, 0], [cols, rows]], dtype=float))
+            self._target_img = self.ax.imshow(
+                np.where(tg.mask, 0.3, np.nan), cmap="Greys", vmin=0, vmax=1, extent=(x0, x1, y0, y1),
+                origin="upper", interpolation="nearest", zorder=1)
+
+    def _set_scene(self, scene: Scene | None) -> None:
+        for p in self._patches:
+            p.remove()
+        self._patches = []
+        if scene is None:
+            return
+        for x, y, r in scene.waypoints:
+            self._patches.append(self.ax.add_patch(
+                Circle((x, y), r, facecolor=(0, 0, 0, 0.08), edgecolor=(0, 0, 0, 0.6), lw=0.8, zorder=2)))
+        for x, y, major, minor, angle in scene.ellipses:
+            self._patches.append(self.ax.add_patch(
+                Ellipse((x, y), major, minor, angle=angle, fill=False, edgecolor="tab:red", lw=1.2, zorder=2)))
+
+    def render(self, frame: Frame) -> np.ndarray:
+        shown = [tg for tg in self._run.targets if tg.t <= frame.t]
+        self._set_target(shown[-1] if shown else None)
+        self._set_scene(self._run.scene_at(frame.t))
+        self._scatter.set_offsets(frame.positions if len(frame.positions) else np.empty((0, 2)))
+        self._scatter.set_facecolors(sc.class_colour(frame.class_ids) / 255.0 if len(frame.class_ids) else [])
+        self._scatter.set_edgecolors("none")
+        self._title.set_text(f"{self._run.name}  step {frame.step}  t = {frame.t:.2f} s  N = {len(frame.ids)}")
+        self.canvas.draw()
+        return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+
+
+def save_png(rgb: np.ndarray, path: Path) -> Path:
+    Image.fromarray(rgb).save(path, format="PNG")
+    return path
+
+
+def save_gif(frames: list[np.ndarray], path: Path, fps: float) -> Path:
+    """Animated GIF; all frames share the first frame's adaptive palette (fast, no flicker)."""
+    first = Image.fromarray(frames[0]).quantize(colors=128, method=Image.Quantize.MEDIANCUT)
+    rest = [Image.fromarray(f).quantize(palette=first, dither=Image.Dither.NONE) for f in frames[1:]]
+    first.save(path, format="GIF", save_all=True, append_images=rest, duration=int(round(1000 / fps)), loop=0)
+    return path
+
+
+def _plot(path: Path, title: str, ylabel: str, lines: list[tuple[np.ndarray, np.ndarray, str, object]]) -> Path:
+    fig, canvas = _figure(PLOT_SIZE)
+    ax = fig.add_subplot(1, 1, 1)
+    for x, y, label, colour in lines:
+        ax.plot(x, y, label=label, color=colour, lw=1.5)
+    ax.set_title(title)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    if len(lines) > 1:
+        ax.legend(loc="best")
+    fig.tight_layout()
+    canvas.print_png(str(path))
+    return path
+
+
+def plot_series(s: Series, out: Path) -> dict[str, Path]:
+    """The three analysis plots; returns {"speed": path, "pressure": path, "distance": path}."""
+    speed_lines = [(s.t, v, f"class {c}", sc.class_colour([c])[0] / 255.0) for c, v in s.speed_by_class.items()]
+    return {
+        "speed": _plot(out / "speed_by_class.png", "Average speed per class", "mean |v| [m/s]", speed_lines),
+        "pressure": _plot(out / "pressure.png", "Average pressure", "mean p", [(s.t, s.pressure, "pressure", "tab:purple")]),
+        "distance": _plot(out / "distance.png", "Average inter-particle distance", "distance [m]", [
+            (s.t, s.nn_distance, "nearest neighbour (mean)", "tab:blue"),
+            (s.t, s.pair_distance, "all pairs (mean)", "tab:orange"),
+        ]),
+    }

@@ -1,0 +1,348 @@
+"""`RunWriter`: the one thin MCAP writer of a run (chunked, zstd-compressed, indexed, Foxglove-ready).
+
+The recorder process calls it; so can a centralised simulation. Topics mirror the Zenoh key expressions
+(`fluidswarm/<run>/state`, ...); see docs/recording.md for every topic, schema and metadata record.
+
+Times `t` are the run's simulated time in seconds (>= 0): they become the MCAP log time (ns) and the
+Foxglove timestamps, and `check` compares event and state times on that one clock.
+
+Interruption: `close()` is idempotent and may be called from a signal handler or another thread. A
+`close()` that interrupts a write in progress on the same thread is deferred to the end of that write, so
+the file is always finished with a valid summary. Writes after `close()` are dropped and return False
+(late subscriber callbacks during shutdown are expected).
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import importlib.metadata
+import json
+import math
+import os
+import subprocess
+import threading
+from pathlib import Path
+from typing import Iterable, Iterator, Sequence
+
+import cv2
+import numpy as np
+from mcap.writer import CompressionType, IndexType, Writer
+
+from fluidswarm.geometry import ImageToDomain
+from fluidswarm.recording import schemas as sc
+
+JSON_KEYS = "fluidswarm.json_keys"  # metadata entry listing the keys whose values are JSON text
+_IDENTITY_POSE = {"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+FRAME_ID = "domain"
+_ELLIPSE_SEGMENTS = 48
+
+
+def code_version() -> str:
+    """`git describe --always --dirty --tags` of the source tree, else the installed package version."""
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(here), "describe", "--always", "--dirty", "--tags"],
+            capture_output=True, text=True, timeout=5, check=True,
+        )
+        if out.stdout.strip():
+            return out.stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        pass
+    try:
+        return importlib.metadata.version("fluidswarm")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def encode_metadata(values: dict) -> dict[str, str]:
+    """MCAP metadata is str -> str: strings are kept, anything else is JSON text listed under JSON_KEYS."""
+    out, json_keys = {}, []
+    for key, value in values.items():
+        if not isinstance(key, str) or not key:
+            raise ValueError(f"metadata keys must be non-empty strings, got {key!r}")
+        if isinstance(value, str):
+            out[key] = value
+        else:
+            out[key] = json.dumps(value, sort_keys=True)
+            json_keys.append(key)
+    if json_keys:
+        out[JSON_KEYS] = json.dumps(json_keys)
+    return out
+
+
+def _dumps(obj: dict) -> bytes:
+    return json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
+
+
+def _color(rgb: Sequence[int], alpha: float) -> dict:
+    return {"r": rgb[0] / 255, "g": rgb[1] / 255, "b": rgb[2] / 255, "a": alpha}
+
+
+def _point(x: float, y: float) -> dict:
+    return {"x": float(x), "y": float(y), "z": 0.0}
+
+
+def _rows(name: str, value, n: int, width: int | None = None) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    shape = (n,) if width is None else (n, width)
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    return arr
+
+
+class RunWriter:
+    """Write one run to `path`. `metadata` goes to the MCAP metadata record `run` (see `encode_metadata`);
+    its `run` entry names the run in the topics (default: the file's stem); `code_version` is added."""
+
+    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024):
+        meta = dict(metadata)
+        self.run = str(meta.get("run") or Path(path).stem)
+        if not self.run or any(c in self.run for c in "/*$?#") or self.run.strip() != self.run:
+            raise ValueError(f"run name {self.run!r} cannot be a Zenoh key chunk")
+        meta["run"] = self.run
+        meta.setdefault("code_version", code_version())
+        self.path = Path(path)
+        self._lock = threading.RLock()
+        self._writing_thread: int | None = None  # the thread inside a write, if any
+        self._close_requested = False
+        self._closed = False
+        self._stream = open(self.path, "wb")
+        self._mcap = Writer(
+            self._stream,
+            chunk_size=chunk_size,
+            compression=CompressionType.ZSTD,
+            index_types=IndexType.ALL,
+            use_chunking=True,
+            use_statistics=True,
+            use_summary_offsets=True,
+        )
+        self._mcap.start(profile="", library=f"fluidswarm {code_version()}")
+        self._channels: dict[str, int] = {}
+        self._schema_ids: dict[str, int] = {}
+        self._targets = 0
+        self._mcap.add_metadata("run", encode_metadata(meta))
+
+    # --- life cycle ---------------------------------------------------------------------------------
+
+    def __enter__(self) -> "RunWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Finish the file (summary, indexes, footer). Idempotent; safe from signal handlers and threads."""
+        if self._writing_thread == threading.get_ident():  # a signal handler interrupted our own write
+            self._close_requested = True
+            return
+        with self._lock:
+            self._finish()
+
+    def _finish(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._mcap.finish()
+            self._stream.flush()
+            os.fsync(self._stream.fileno())
+        finally:
+            self._stream.close()
+
+    def _write(self, leaf: str, t: float, payload: dict, sequence: int = 0) -> bool:
+        log_time = sc.seconds_to_ns(t)
+        data = _dumps(payload)
+        with self._writing() as open_:
+            if open_:
+                channel = self._channel(leaf)
+                self._mcap.add_message(channel, log_time=log_time, data=data, publish_time=log_time,
+                                       sequence=sequence & 0xFFFFFFFF)
+            return open_
+
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[bool]:
+        """Hold the lock for one write; yields False if the file is already closed. A close() requested
+        meanwhile (signal handler on this thread) runs when the write is done."""
+        with self._lock:
+            self._writing_thread = threading.get_ident()
+            try:
+                yield not self._closed
+            finally:
+                self._writing_thread = None
+                if self._close_requested:
+                    self._finish()
+
+    def _channel(self, leaf: str) -> int:
+        if leaf not in self._channels:
+            name = sc.TOPIC_SCHEMAS[leaf]
+            if name not in self._schema_ids:
+                self._schema_ids[name] = self._mcap.register_schema(name, sc.SCHEMA_ENCODING, sc.schema_bytes(name))
+            self._channels[leaf] = self._mcap.register_channel(
+                sc.topic(self.run, leaf), sc.MESSAGE_ENCODING, self._schema_ids[name])
+        return self._channels[leaf]
+
+    # --- messages -----------------------------------------------------------------------------------
+
+    def write_states(self, step: int, t: float, ids, positions, velocities, density, pressure, class_ids,
+                     alive=None) -> bool:
+        """All particle states of one step as ONE `foxglove.PointCloud` on `fluidswarm/<run>/state`.
+
+        Arrays have one row per particle; `alive` (bool, optional) selects the rows to record, otherwise
+        every row is taken as alive. Fields are packed as `schemas.PARTICLE_DTYPE` (SPH values float64).
+        The step number is the MCAP message sequence and `fluidswarm.step` in the message.
+        """
+        step = int(step)
+        if step < 0:
+            raise ValueError(f"step must be >= 0, got {step}")
+        ids = np.asarray(ids).reshape(-1)
+        n = len(ids)
+        if n and (not np.issubdtype(ids.dtype, np.integer) or ids.min() < 0 or ids.max() >= 2**32):
+            raise ValueError("ids must be integers in [0, 2**32)")
+        cls = np.asarray(class_ids).reshape(-1)
+        if cls.shape != (n,) or (n and (not np.issubdtype(cls.dtype, np.integer) or cls.min() < 0)):
+            raise ValueError(f"class_ids must be {n} non-negative integers")
+        pos = _rows("positions", positions, n, 2)
+        vel = _rows("velocities", velocities, n, 2)
+        rho = _rows("density", density, n)
+        p = _rows("pressure", pressure, n)
+        if alive is not None:
+            keep = np.asarray(alive)
+            if keep.dtype != bool or keep.shape != (n,):
+                raise ValueError(f"alive must be a boolean mask of shape ({n},)")
+            ids, cls, pos, vel, rho, p = ids[keep], cls[keep], pos[keep], vel[keep], rho[keep], p[keep]
+        if len(np.unique(ids)) != len(ids):
+            raise ValueError(f"step {step}: duplicate particle ids")
+        packed = np.zeros(len(ids), dtype=sc.PARTICLE_DTYPE)
+        packed["id"], packed["class"] = ids, cls
+        packed["x"], packed["y"], packed["vx"], packed["vy"] = pos[:, 0], pos[:, 1], vel[:, 0], vel[:, 1]
+        packed["rho"], packed["p"] = rho, p
+        rgb = sc.class_colour(cls)
+        packed["red"], packed["green"], packed["blue"], packed["alpha"] = rgb[:, 0], rgb[:, 1], rgb[:, 2], 255
+        payload = {
+            "timestamp": sc.stamp(t), "frame_id": FRAME_ID, "pose": _IDENTITY_POSE,
+            "point_stride": sc.PARTICLE_DTYPE.itemsize, "fields": sc.packed_fields(sc.PARTICLE_DTYPE),
+            "data": base64.b64encode(packed.tobytes()).decode("ascii"),
+            sc.EXTRA_KEY: {"step": step, "count": int(len(ids))},
+        }
+        return self._write(sc.STATE, t, payload, sequence=step)
+
+    def write_scene(self, t: float, waypoints: Iterable[Sequence[float]] = (),
+                    ellipses: Iterable[Sequence[float]] = ()) -> bool:
+        """Waypoints (x, y, r) as flat discs and ellipses (x, y, major, minor, angle_deg; full axis
+        lengths, angle counter-clockwise from +x) as outlines: one `foxglove.SceneUpdate` on
+        `fluidswarm/<run>/scene` replacing the previous waypoints and ellipses."""
+        wps = [tuple(float(v) for v in w) for w in waypoints]
+        els = [tuple(float(v) for v in e) for e in ellipses]
+        if any(len(w) != 3 or w[2] < 0 for w in wps):
+            raise ValueError("waypoints must be (x, y, r) with r >= 0")
+        if any(len(e) != 5 or e[2] < 0 or e[3] < 0 for e in els):
+            raise ValueError("ellipses must be (x, y, major, minor, angle_deg) with non-negative axes")
+        stamp = sc.stamp(t)
+        discs = [{
+            "pose": {"position": _point(x, y), "orientation": _IDENTITY_POSE["orientation"]},
+            "size": {"x": 2 * r, "y": 2 * r, "z": 0.002}, "bottom_scale": 1.0, "top_scale": 1.0,
+            "color": _color((0, 0, 0), 0.25),
+        } for x, y, r in wps]
+        loops = [self._ellipse_line(*e) for e in els]
+        payload = {
+            "deletions": [],
+            "entities": [
+                self._entity(stamp, "waypoints", cylinders=discs),
+                self._entity(stamp, "ellipses", lines=loops),
+            ],
+            sc.EXTRA_KEY: {"waypoints": [list(w) for w in wps], "ellipses": [list(e) for e in els]},
+        }
+        return self._write(sc.SCENE, t, payload)
+
+    def write_target(self, t: float, mask: np.ndarray, transform: ImageToDomain) -> bool:
+        """Store the target silhouette `mask` (image pixels) and the `transform` the controller uses, as
+        attachment `target/<k>.png` plus metadata record `target/<k>`, and draw its outline in the scene.
+        The last target written is the one `replay` scores fidelity against."""
+        mask = np.asarray(mask).astype(bool)
+        if mask.ndim != 2 or not mask.any():
+            raise ValueError("target mask must be a 2-D array with at least one foreground pixel")
+        ok, png = cv2.imencode(".png", mask.astype(np.uint8) * 255)
+        if not ok:
+            raise ValueError("could not encode the target mask as PNG")
+        log_time = sc.seconds_to_ns(t)
+        contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        lines = []
+        for c in contours:
+            xy = transform.to_domain(c.reshape(-1, 2) + 0.5)
+            lines.append({"type": 1, "pose": _IDENTITY_POSE, "thickness": 2.0, "scale_invariant": True,
+                          "points": [_point(x, y) for x, y in xy], "color": _color((80, 80, 80), 1.0),
+                          "colors": [], "indices": []})
+        payload = {"deletions": [], "entities": [self._entity(sc.stamp(t), "target", lines=lines)]}
+        with self._writing() as open_:
+            if not open_:
+                return False
+            name = f"target/{self._targets}"
+            self._targets += 1
+            self._mcap.add_attachment(create_time=log_time, log_time=log_time, name=f"{name}.png",
+                                      media_type="image/png", data=png.tobytes())
+            self._mcap.add_metadata(name, encode_metadata({
+                "t": float(t), "attachment": f"{name}.png", "rows": mask.shape[0], "cols": mask.shape[1],
+                **transform.as_dict()}))
+        return self._write(sc.SCENE, t, payload)
+
+    def write_command(self, t: float, command_json: str) -> bool:
+        """A gesture command (a JSON object, as published) on `fluidswarm/<run>/command`."""
+        try:
+            command = json.loads(command_json)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"command is not JSON: {exc}") from None
+        if not isinstance(command, dict):
+            raise ValueError("command must be a JSON object")
+        return self._write(sc.COMMAND, t, command)
+
+    def write_image(self, t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> bool:
+        """The perception input as `foxglove.CompressedImage` on `fluidswarm/<run>/perception/image`."""
+        payload = {"timestamp": sc.stamp(t), "frame_id": str(frame_id),
+                   "data": base64.b64encode(bytes(jpeg_bytes)).decode("ascii"), "format": fmt}
+        return self._write(sc.IMAGE, t, payload)
+
+    def write_event(self, t: float, level: int | str, name: str, message: str, *, kind: str | None = None,
+                    agent: int | None = None, step: int | None = None) -> bool:
+        """A `foxglove.Log` on `fluidswarm/<run>/events`.
+
+        `level` is a foxglove LogLevel (0-5) or its name ("info", ...); `name` the process (e.g.
+        "agent/17"). For `check`, lifecycle events carry `kind` ("started" | "died"; also "froze",
+        "rejected", ...) and the `agent` id; `step`, if given, is the first step at which the event holds
+        (started: first step with a state; died: first step without one); without it, time `t` decides.
+        """
+        if isinstance(level, str):
+            if level.lower() not in sc.LOG_LEVELS:
+                raise ValueError(f"unknown log level {level!r}; use one of {sorted(sc.LOG_LEVELS)}")
+            level = sc.LOG_LEVELS[level.lower()]
+        if int(level) not in range(6):
+            raise ValueError(f"log level must be 0..5, got {level}")
+        extra = {"kind": kind, "agent": None if agent is None else int(agent),
+                 "step": None if step is None else int(step)}
+        payload = {"timestamp": sc.stamp(t), "level": int(level), "message": str(message), "name": str(name),
+                   "file": "", "line": 0, sc.EXTRA_KEY: extra}
+        return self._write(sc.EVENTS, t, payload)
+
+    # --- helpers ------------------------------------------------------------------------------------
+
+    @staticmethod
+    def _entity(stamp: dict, entity_id: str, **primitives) -> dict:
+        entity = {"timestamp": stamp, "frame_id": FRAME_ID, "id": entity_id, "lifetime": {"sec": 0, "nsec": 0},
+                  "frame_locked": False, "metadata": []}
+        for key in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models"):
+            entity[key] = primitives.get(key, [])
+        return entity
+
+    @staticmethod
+    def _ellipse_line(x: float, y: float, major: float, minor: float, angle_deg: float) -> dict:
+        a = np.linspace(0, 2 * math.pi, _ELLIPSE_SEGMENTS, endpoint=False)
+        c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+        ex, ey = major / 2 * np.cos(a), minor / 2 * np.sin(a)
+        pts = [_point(x + c * u - s * v, y + s * u + c * v) for u, v in zip(ex, ey)]
+        return {"type": 1, "pose": _IDENTITY_POSE, "thickness": 2.0, "scale_invariant": True, "points": pts,
+                "color": _color((214, 39, 40), 1.0), "colors": [], "indices": []}
