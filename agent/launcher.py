@@ -1,0 +1,288 @@
+"""Start a swarm of agent processes on this host, run it, collect the final states, clean up.
+
+Used by `fluidswarm launch`, `verify`, `imitate`, `run` and the benchmarks. Every process it starts is
+stopped when it returns, raises, or is interrupted (SIGINT/SIGTERM); agents also get SIGTERM from the
+kernel if the launcher itself dies (PR_SET_PDEATHSIG), so none outlives it.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import secrets
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import zenoh
+
+from agent import keys
+from agent.session import router_config
+from agent.spec import AgentSpec
+from agent.sph.particle import Control
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except OSError:
+        pass
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@dataclass
+class SwarmResult:
+    ids: list[int]
+    finals: dict[int, dict]  # agent id -> its final report
+    events: list[dict]
+    exit_codes: dict[int, int | None]
+    wall_seconds: float
+    startup_seconds: float
+    steps: int
+
+    def final_states(self) -> dict[int, np.ndarray]:
+        return {i: np.array(r["state"]) for i, r in self.finals.items()}
+
+    def steps_per_second(self) -> float:
+        starts = [r["t_start"] for r in self.finals.values() if r.get("t_start")]
+        ends = [r["t_end"] for r in self.finals.values() if r.get("t_end")]
+        if not starts or not ends:
+            return 0.0
+        return self.steps / max(max(ends) - min(starts), 1e-9)
+
+    def msgs_per_agent_step(self) -> float:
+        rs = [r for r in self.finals.values() if r.get("steps")]
+        return float(np.mean([r["msgs_received"] / r["steps"] for r in rs])) if rs else 0.0
+
+    def neighbours_per_agent(self) -> float:
+        rs = [r for r in self.finals.values() if r.get("steps")]
+        return float(np.mean([r["neighbours"] / r["steps"] for r in rs])) if rs else 0.0
+
+
+@dataclass
+class Swarm:
+    """A running swarm: its router session, its agent processes, what they reported."""
+
+    run: str
+    endpoint: str
+    session: zenoh.Session
+    procs: dict[int, subprocess.Popen] = field(default_factory=dict)
+    finals: dict[int, dict] = field(default_factory=dict)
+    events: list[dict] = field(default_factory=list)
+    alive: set[int] = field(default_factory=set)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    changed: threading.Condition = None  # type: ignore[assignment]
+
+    def __post_init__(self):
+        self.changed = threading.Condition(self.lock)
+
+
+class Launcher:
+    """Owns an embedded router (or a connection to one) and the agent processes of one run."""
+
+    def __init__(self, run: str | None = None, connect: str | None = None, listen: str | None = None,
+                 secret: str | None = None, agent_timeout: float = 2.0, quiet: bool = True,
+                 user: str = "", password: str = "", router_auth_file: str = ""):
+        self.run = run or f"run-{uuid.uuid4().hex[:8]}"
+        if not keys.valid_run_name(self.run):
+            raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
+        self.secret = secret if secret is not None else secrets.token_hex(32)
+        self.agent_timeout = agent_timeout
+        self.quiet = quiet
+        self.user, self.password = user, password
+        if connect:
+            self.endpoint = connect
+            from agent.session import client_config
+            conf = client_config([connect], user, password)
+        else:
+            self.endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
+            conf = router_config([self.endpoint], dictionary_file=router_auth_file, user=user, password=password)
+        self.session = zenoh.open(conf)
+        self.swarm = Swarm(self.run, self.endpoint, self.session)
+        self._subs = [
+            self.session.declare_subscriber(keys.final_expr(self.run), self._on_final),
+            self.session.declare_subscriber(keys.event_expr(self.run), self._on_event),
+            self.session.liveliness().declare_subscriber(keys.alive_expr(self.run), self._on_alive, history=True),
+        ]
+        self.closed = False
+
+    # callbacks: tiny, under the lock
+    def _on_final(self, sample) -> None:
+        try:
+            msg = json.loads(sample.payload.to_bytes())
+            agent_id = int(msg["id"])
+        except (ValueError, KeyError, TypeError):
+            return
+        with self.swarm.changed:
+            self.swarm.finals[agent_id] = msg
+            self.swarm.changed.notify_all()
+
+    def _on_event(self, sample) -> None:
+        try:
+            msg = json.loads(sample.payload.to_bytes())
+        except ValueError:
+            return
+        with self.swarm.changed:
+            self.swarm.events.append(msg)
+
+    def _on_alive(self, sample) -> None:
+        j = keys.id_from_key(str(sample.key_expr))
+        if j is None:
+            return
+        with self.swarm.changed:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self.swarm.alive.add(j)
+            else:
+                self.swarm.alive.discard(j)
+            self.swarm.changed.notify_all()
+
+    def spec_for(self, agent_id: int, state: np.ndarray, control: Control, params, steps: int, **extra) -> AgentSpec:
+        from dataclasses import asdict
+
+        p = params.as_dict()
+        p["domain"] = list(p["domain"])
+        return AgentSpec(run=self.run, id=int(agent_id), connect=[self.endpoint], steps=int(steps),
+                         initial=[float(v) for v in state[:4]], control=asdict(control), params=p,
+                         timeout=self.agent_timeout, user=self.user, password=self.password, **extra)
+
+    def spawn(self, spec: AgentSpec) -> subprocess.Popen:
+        out = subprocess.DEVNULL if self.quiet else None
+        proc = subprocess.Popen([sys.executable, "-m", "agent", "--spec", spec.to_json()],
+                                stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+        self.swarm.procs[spec.id] = proc
+        return proc
+
+    def wait_alive(self, ids, timeout: float) -> None:
+        want = set(ids)
+        deadline = time.monotonic() + timeout
+        with self.swarm.changed:
+            while not want <= self.swarm.alive:
+                left = deadline - time.monotonic()
+                dead = [i for i in want if self.swarm.procs.get(i) and self.swarm.procs[i].poll() is not None]
+                if dead:
+                    raise RuntimeError(f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})")
+                if left <= 0:
+                    missing = sorted(want - self.swarm.alive)
+                    raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
+                self.swarm.changed.wait(min(left, 0.5))
+
+    def start(self) -> None:
+        self.session.put(keys.ctl_key(self.run, "start"), b"start")
+
+    def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
+        """Until every agent in `ids` has reported or exited."""
+        deadline = time.monotonic() + timeout
+        with self.swarm.changed:
+            while True:
+                pending = [i for i in ids if i not in self.swarm.finals and self.swarm.procs[i].poll() is None]
+                if not pending:
+                    return
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError(f"{len(pending)} agents still running after {timeout:.0f} s")
+                self.swarm.changed.wait(min(left, 0.2))
+                if progress is not None:
+                    self.swarm.changed.release()
+                    try:
+                        progress()
+                    finally:
+                        self.swarm.changed.acquire()
+
+    def close(self) -> dict[int, int | None]:
+        """Stop every agent (stop message, then SIGTERM, then SIGKILL) and the router. Idempotent."""
+        if self.closed:
+            return {i: p.returncode for i, p in self.swarm.procs.items()}
+        self.closed = True
+        procs = self.swarm.procs
+        if any(p.poll() is None for p in procs.values()):
+            try:
+                self.session.put(keys.ctl_key(self.run, "stop"), b"stop")
+            except Exception:  # the session may already be gone on an interrupted run
+                pass
+            _wait_all(procs.values(), 2.0)
+        for p in procs.values():
+            if p.poll() is None:
+                try:
+                    p.send_signal(signal.SIGCONT)  # a frozen agent must be able to handle SIGTERM
+                    p.terminate()
+                except ProcessLookupError:
+                    pass
+        _wait_all(procs.values(), 3.0)
+        for p in procs.values():
+            if p.poll() is None:
+                p.kill()
+        _wait_all(procs.values(), 5.0)
+        for s in self._subs:
+            try:
+                s.undeclare()
+            except Exception:
+                pass
+        self.session.close()
+        return {i: p.returncode for i, p in procs.items()}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _wait_all(procs, timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    for p in procs:
+        try:
+            p.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            pass
+
+
+def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_timeout: float | None = None,
+              run_timeout: float | None = None, on_started: Callable[[Launcher], None] | None = None,
+              progress: Callable[[], None] | None = None, ids=None, **spec_extra) -> SwarmResult:
+    """Run `setup` (agent.sph.setups.Setup) through one agent process per particle, lockstep, `steps` steps.
+
+    With a `launcher` given, the caller owns it (and closes it); otherwise one is made and closed here.
+    """
+    own = launcher is None
+    launcher = launcher or Launcher()
+    result = None
+    try:
+        chosen = [int(i) for i in (setup.ids if ids is None else ids)]
+        index = {int(i): k for k, i in enumerate(setup.ids)}
+        t0 = time.monotonic()
+        for i in chosen:
+            k = index[i]
+            launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **spec_extra))
+        launcher.wait_alive(chosen, startup_timeout or 30.0 + 0.3 * len(chosen))
+        startup = time.monotonic() - t0
+        t1 = time.monotonic()
+        launcher.start()
+        if on_started is not None:
+            on_started(launcher)
+        launcher.wait_finals(chosen, run_timeout or 60.0 + steps * (0.05 + 0.004 * len(chosen)), progress)
+        wall = time.monotonic() - t1
+        with launcher.swarm.changed:
+            finals = {i: launcher.swarm.finals[i] for i in chosen if i in launcher.swarm.finals}
+            events = list(launcher.swarm.events)
+        result = SwarmResult(chosen, finals, events, {}, wall, startup, steps)
+        return result
+    finally:
+        if own:
+            codes = launcher.close()
+            if result is not None:
+                result.exit_codes.update(codes)

@@ -1,0 +1,347 @@
+"""The agent process: one particle, its neighbours over Zenoh, the physics core's per-particle step.
+
+Protocol (docs/protocol.md): one exchange per step. At step m the agent publishes its state in its
+spatial cell, waits for the step-m states of the agents it expects near it, and computes its state for
+step m+1 with `step_particle`. It only ever subscribes to the cells within R_sub of itself.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import queue
+import random
+import signal
+import sys
+import time
+from collections import defaultdict
+
+import numpy as np
+import zenoh
+
+from agent import keys
+from agent.session import client_config
+from agent.spec import AgentSpec
+from agent.sph.particle import NFIELDS, X, Y, initial_state, interacting, step_particle
+from agent.wire import decode_state, encode_state
+
+# A neighbour can be at most one step ahead of an agent it waits for; messages further ahead are kept
+# (another part of the swarm may run ahead) up to this window, beyond it they are rejected as bogus.
+MAX_AHEAD = 1000
+# Distinct senders within the support, BEHIND_STEPS or more steps ahead, mean the swarm has dropped
+# this agent (it was frozen): a neighbour that still waited for us could be at most one step ahead.
+BEHIND_SENDERS = 2
+BEHIND_STEPS = 3
+EXIT_OK, EXIT_FELL_BEHIND, EXIT_STOPPED, EXIT_NO_START = 0, 3, 4, 5
+
+
+class Stop(Exception):
+    """SIGTERM/SIGINT or the launcher's stop: leave the loop and close cleanly."""
+
+
+def covering_cells(x: float, y: float, radius: float, cell: float) -> set[tuple[int, int]]:
+    """Cells of side `cell` that intersect the disc of `radius` around (x, y)."""
+    cx0, cx1 = math.floor((x - radius) / cell), math.floor((x + radius) / cell)
+    cy0, cy1 = math.floor((y - radius) / cell), math.floor((y + radius) / cell)
+    out = set()
+    for cx in range(cx0, cx1 + 1):
+        dx = max(cx * cell - x, 0.0, x - (cx + 1) * cell)
+        for cy in range(cy0, cy1 + 1):
+            dy = max(cy * cell - y, 0.0, y - (cy + 1) * cell)
+            if dx * dx + dy * dy <= radius * radius:
+                out.add((cx, cy))
+    return out
+
+
+class Agent:
+    def __init__(self, spec: AgentSpec, controller=None):
+        self.spec = spec
+        self.params = spec.sph_params()
+        p = self.params
+        self.cell = p.h
+        d = p.max_step_displacement
+        # Radii (docs/protocol.md): wait for agents last seen within r_expect; subscribe to r_sub.
+        self.r_expect = p.support + 3 * d
+        self.r_sub = p.support + 6 * d
+        self.r_keep = self.r_sub + 0.5 * self.cell
+        x, y, vx, vy = spec.initial
+        self.state = initial_state(x, y, vx, vy, p)
+        self.controller = controller
+        self.static_control = spec.static_control()
+        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
+        self.buffer: dict[int, dict[int, list]] = defaultdict(dict)
+        self.latest: dict[int, tuple[int, float, float]] = {}
+        self.dead: set[int] = set()
+        self.ahead_senders: set[int] = set()
+        self.step = 0
+        self.started = False
+        self.stop_requested = False
+        self.rng = random.Random(spec.id)
+        self.counters = {"msgs_received": 0, "neighbours": 0, "rejected": defaultdict(int), "timeouts": 0,
+                         "deaths_seen": 0, "stale": 0, "dropped_out": 0}
+        self.subscribers: dict[tuple[int, int], object] = {}
+        self.step_started_at: float | None = None
+        self.step_ended_at: float | None = None
+
+    # ---- Zenoh callbacks: decode nothing heavy, just enqueue ------------------------------------
+    def _on_state(self, sample) -> None:
+        self.inbox.put((0, sample.payload.to_bytes()))
+
+    def _on_alive(self, sample) -> None:
+        if sample.kind == zenoh.SampleKind.DELETE:
+            self.inbox.put((1, str(sample.key_expr)))
+
+    def _on_ctl(self, sample) -> None:
+        self.inbox.put((2, str(sample.key_expr)))
+
+    def _on_command(self, sample) -> None:
+        self.inbox.put((3, sample.payload.to_bytes()))
+
+    # ---- message handling ----------------------------------------------------------------------
+    def _handle(self, item) -> None:
+        kind, data = item
+        if kind == 0:
+            self._handle_state(data)
+        elif kind == 1:
+            j = keys.id_from_key(data)
+            if j is not None and j != self.spec.id and j not in self.dead:
+                self.dead.add(j)
+                self.latest.pop(j, None)
+                self.counters["deaths_seen"] += 1
+        elif kind == 2:
+            if data.endswith("/start"):
+                self.started = True
+            elif data.endswith("/stop"):
+                raise Stop()
+        elif kind == 3 and self.controller is not None:
+            reason = self.controller.offer(data)
+            if reason:
+                self.counters["rejected"]["command_" + reason] += 1
+
+    def _handle_state(self, data: bytes) -> None:
+        decoded, reason = decode_state(data)
+        if decoded is None:
+            self.counters["rejected"][reason] += 1
+            return
+        j, step, _cls, values = decoded
+        if j == self.spec.id:
+            return
+        if j in self.dead or step > self.step + MAX_AHEAD:
+            self.counters["rejected"]["dead" if j in self.dead else "step"] += 1
+            return
+        self.counters["msgs_received"] += 1
+        last = self.latest.get(j)
+        if last is None or step >= last[0]:
+            self.latest[j] = (step, values[X], values[Y])
+        if step < self.step:
+            self.counters["stale"] += 1
+            return
+        self.buffer[step][j] = values
+        if self.started and step >= self.step + BEHIND_STEPS:
+            # A particle within the support that is this far ahead is no longer waiting for us.
+            dx, dy = values[X] - self.state[X], values[Y] - self.state[Y]
+            if dx * dx + dy * dy <= self.params.support ** 2:
+                self.ahead_senders.add(j)
+                if len(self.ahead_senders) >= BEHIND_SENDERS:
+                    raise FellBehind()
+
+    # ---- subscriptions -------------------------------------------------------------------------
+    def _update_subscriptions(self) -> None:
+        x, y = self.state[X], self.state[Y]
+        want = covering_cells(x, y, self.r_sub, self.cell)
+        keep = covering_cells(x, y, self.r_keep, self.cell)
+        for c in list(self.subscribers):
+            if c not in keep:
+                self.subscribers.pop(c).undeclare()
+        for c in want:
+            if c not in self.subscribers:
+                self.subscribers[c] = self.session.declare_subscriber(keys.state_cell_expr(self.spec.run, *c), self._on_state)
+
+    # ---- the run -------------------------------------------------------------------------------
+    def _event(self, what: str, **fields) -> None:
+        msg = {"id": self.spec.id, "step": self.step, "event": what, **fields}
+        self.session.put(keys.event_key(self.spec.run, self.spec.id), json.dumps(msg))
+
+    def _drain(self, timeout: float) -> bool:
+        """Handle queued messages; block up to `timeout` for the first. False if nothing came."""
+        try:
+            item = self.inbox.get(timeout=timeout) if timeout > 0 else self.inbox.get_nowait()
+        except queue.Empty:
+            return False
+        self._handle(item)
+        while True:
+            try:
+                item = self.inbox.get_nowait()
+            except queue.Empty:
+                return True
+            self._handle(item)
+
+    def _discover_initial_neighbours(self) -> None:
+        """Step-0 neighbours: the agents whose *born* token lies in a cell we watch (liveliness query)."""
+        x, y = self.state[X], self.state[Y]
+        for c in covering_cells(x, y, self.r_sub, self.cell):
+            for reply in self.session.liveliness().get(keys.born_cell_expr(self.spec.run, *c), timeout=10.0):
+                try:
+                    j = keys.id_from_key(str(reply.ok.key_expr))
+                except Exception:  # an error reply carries no key: nothing to learn from it
+                    continue
+                if j is not None and j != self.spec.id and j not in self.latest:
+                    self.latest[j] = (-1, math.nan, math.nan)
+
+    def _expected(self) -> set[int]:
+        x, y = self.state[X], self.state[Y]
+        r2 = self.r_expect * self.r_expect
+        out = set()
+        for j, (_s, jx, jy) in self.latest.items():
+            if math.isnan(jx) or (jx - x) ** 2 + (jy - y) ** 2 <= r2:
+                out.add(j)
+        return out
+
+    def _publish(self) -> None:
+        if self.spec.drop_out and self.rng.random() < self.spec.drop_out:
+            self.counters["dropped_out"] += 1
+            return
+        cx, cy = keys.cell_of(self.state[X], self.state[Y], self.cell)
+        cls = self.controller.particle_class if self.controller is not None else 0
+        self.session.put(keys.state_key(self.spec.run, cx, cy, self.spec.id),
+                         encode_state(self.spec.id, self.step, self.state, cls))
+
+    def _wait_for(self, expected: set[int]) -> None:
+        deadline = time.monotonic() + self.spec.timeout
+        have = self.buffer[self.step]
+        while True:
+            missing = [j for j in expected if j not in have and j not in self.dead]
+            if not missing:
+                return
+            left = deadline - time.monotonic()
+            if left <= 0:
+                for j in missing:  # silent too long: frozen, partitioned, or dropping messages
+                    self.latest.pop(j, None)
+                    self.counters["timeouts"] += 1
+                self._event("neighbour_timeout", neighbours=sorted(missing))
+                return
+            self._drain(min(left, 0.25))
+
+    def run(self) -> int:
+        spec = self.spec
+        self.session = zenoh.open(client_config(spec.connect, spec.user, spec.password))
+        try:
+            return self._run()
+        finally:
+            for sub in self.subscribers.values():
+                sub.undeclare()
+            self.session.close()
+
+    def _run(self) -> int:
+        spec, run = self.spec, self.spec.run
+        s = self.session
+        s.declare_subscriber(keys.ctl_expr(run), self._on_ctl)
+        s.liveliness().declare_subscriber(keys.alive_expr(run), self._on_alive)
+        if self.controller is not None:
+            s.declare_subscriber(keys.command_key(run), self._on_command)
+        self._update_subscriptions()
+        cx, cy = keys.cell_of(self.state[X], self.state[Y], self.cell)
+        self.tokens = [s.liveliness().declare_token(keys.alive_key(run, spec.id)),
+                       s.liveliness().declare_token(keys.born_key(run, cx, cy, spec.id))]
+        try:
+            if spec.join:
+                self._join()
+            else:
+                deadline = time.monotonic() + spec.start_timeout
+                while not self.started:
+                    if time.monotonic() > deadline:
+                        return EXIT_NO_START
+                    self._drain(0.25)
+                self._discover_initial_neighbours()
+            self._event("started")
+            self.step_started_at = time.time()
+            while self.step < spec.steps:
+                self._publish()
+                self._wait_for(self._expected() - {spec.id})
+                self._drain(0)
+                current = self.buffer.pop(self.step, {})
+                if current:
+                    ids = sorted(current)
+                    neighbours = np.array([current[j] for j in ids])
+                else:
+                    neighbours = np.empty((0, NFIELDS))
+                control = self.controller.control(self.state, self.step) if self.controller is not None else self.static_control
+                self.counters["neighbours"] += len(interacting(self.state, neighbours, self.params)) if len(neighbours) else 0
+                self.state = step_particle(self.state, neighbours, control, self.params)
+                self.step += 1
+                self._update_subscriptions()
+            self.step_ended_at = time.time()
+            self._publish()  # the final state, so neighbours still waiting for it are not held up
+            self._report("done")
+            return EXIT_OK
+        except FellBehind:
+            self._event("fell_behind")
+            self._report("fell_behind")
+            return EXIT_FELL_BEHIND
+        except Stop:
+            self._report("stopped")
+            return EXIT_STOPPED
+
+    def _join(self) -> None:
+        """A late joiner adopts the step of the first states it hears around it (docs/protocol.md)."""
+        deadline = time.monotonic() + self.spec.start_timeout
+        while True:
+            try:
+                item = self.inbox.get(timeout=0.25)
+            except queue.Empty:
+                if time.monotonic() > deadline:
+                    raise Stop()
+                continue
+            if item[0] == 0:
+                decoded, _ = decode_state(item[1])
+                if decoded is not None and decoded[0] != self.spec.id:
+                    self.step = decoded[1] + 1
+                    self.started = True
+                    self.buffer.clear()
+                    return
+            else:
+                self._handle(item)
+
+    def _report(self, status: str) -> None:
+        c = self.counters
+        msg = {
+            "id": self.spec.id, "status": status, "steps": self.step, "state": [float(v) for v in self.state],
+            "msgs_received": c["msgs_received"], "neighbours": c["neighbours"], "rejected": dict(c["rejected"]),
+            "timeouts": c["timeouts"], "deaths_seen": c["deaths_seen"], "stale": c["stale"],
+            "dropped_out": c["dropped_out"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
+        }
+        if self.controller is not None:
+            msg.update(self.controller.report())
+        self.session.put(keys.final_key(self.spec.run, self.spec.id), json.dumps(msg))
+
+
+class FellBehind(Exception):
+    """Neighbours are two or more steps ahead: the swarm has dropped this agent (after a freeze)."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="fluidswarm agent", description="run one SPH particle agent")
+    parser.add_argument("--spec", required=True, help="the agent's start-up parameters as JSON (agent/spec.py)")
+    args = parser.parse_args(argv)
+    try:
+        spec = AgentSpec.from_json(args.spec)
+    except ValueError as exc:
+        print(f"fluidswarm agent: error: {exc}", file=sys.stderr)
+        return 2
+
+    def on_signal(signum, frame):
+        raise Stop()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    controller = None
+    if spec.secret:
+        from agent.route import CommandFollower
+
+        controller = CommandFollower(spec)
+    try:
+        return Agent(spec, controller).run()
+    except Stop:
+        return EXIT_STOPPED

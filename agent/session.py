@@ -1,0 +1,37 @@
+"""Zenoh session configurations for agents (clients) and routers, in one place."""
+
+from __future__ import annotations
+
+import json
+
+import zenoh
+
+
+def client_config(endpoints: list[str], user: str = "", password: str = "") -> zenoh.Config:
+    """A client that keeps retrying its router: 200 processes starting at once overwhelm a router's
+    accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms is -1."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"client"')
+    conf.insert_json5("connect/endpoints", json.dumps(endpoints))
+    conf.insert_json5("connect/timeout_ms", "-1")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if user:
+        conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+        conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    return conf
+
+
+def router_config(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
+                  user: str = "", password: str = "") -> zenoh.Config:
+    """An in-process router (mode "router"): no external daemon needed."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", json.dumps(listen))
+    conf.insert_json5("connect/endpoints", json.dumps(connect or []))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if dictionary_file:
+        conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(dictionary_file))
+        if user:
+            conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+            conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    return conf

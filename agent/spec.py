@@ -1,0 +1,107 @@
+"""What one agent process is told at start (its command line, as JSON), validated once at the edge."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+from agent.keys import valid_run_name
+from agent.sph.params import SPHParams
+from agent.sph.particle import Control
+
+
+@dataclass
+class AgentSpec:
+    """One agent's start-up parameters.
+
+    run            run name (one key chunk)
+    id             this agent's particle id (>= 0)
+    connect        Zenoh endpoints to connect to, e.g. ["tcp/127.0.0.1:7447"]
+    steps          number of steps to run (lockstep)
+    initial        [x, y, vx, vy] in m and m/s
+    control        the static Control fields (used until a gesture command arrives)
+    params         SPHParams fields
+    timeout        s: a neighbour silent this long in one step is dropped (frozen or lost)
+    start_timeout  s: give up if the launcher's start signal does not come
+    drop_out       fraction [0, 1) of this agent's outgoing state messages to drop (failure injection)
+    secret         hex key of the run's command signatures (HMAC-SHA256), never sent on the bus
+    join           True for a late joiner: adopt the swarm's current step instead of waiting for start
+    """
+
+    run: str
+    id: int
+    connect: list[str]
+    steps: int
+    initial: list[float]
+    control: dict = field(default_factory=dict)
+    params: dict = field(default_factory=dict)
+    timeout: float = 2.0
+    start_timeout: float = 120.0
+    drop_out: float = 0.0
+    secret: str = ""
+    join: bool = False
+    user: str = ""
+    password: str = ""
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), separators=(",", ":"))
+
+    @classmethod
+    def from_json(cls, text: str) -> "AgentSpec":
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"agent spec: not JSON ({exc.msg})") from None
+        if not isinstance(raw, dict):
+            raise ValueError("agent spec: must be a JSON object")
+        known = set(cls.__dataclass_fields__)
+        unknown = set(raw) - known
+        if unknown:
+            raise ValueError(f"agent spec: unknown field {sorted(unknown)[0]!r}")
+        try:
+            spec = cls(**raw)
+        except TypeError as exc:
+            raise ValueError(f"agent spec: {exc}") from None
+        spec.validate()
+        return spec
+
+    def validate(self) -> None:
+        if not isinstance(self.run, str) or not valid_run_name(self.run):
+            raise ValueError(f"agent spec: run {self.run!r} must be 1-64 letters, digits, '-' or '_'")
+        if not isinstance(self.id, int) or isinstance(self.id, bool) or not 0 <= self.id < 2**31:
+            raise ValueError(f"agent spec: id must be an integer in [0, 2^31), got {self.id!r}")
+        if not isinstance(self.steps, int) or self.steps < 0:
+            raise ValueError(f"agent spec: steps must be a non-negative integer, got {self.steps!r}")
+        if (not isinstance(self.initial, list) or len(self.initial) != 4
+                or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.initial)):
+            raise ValueError(f"agent spec: initial must be [x, y, vx, vy] finite numbers, got {self.initial!r}")
+        if not isinstance(self.connect, list) or not all(isinstance(e, str) and e for e in self.connect):
+            raise ValueError("agent spec: connect must be a list of endpoints")
+        for name in ("timeout", "start_timeout"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"agent spec: {name} must be > 0, got {v!r}")
+        if not isinstance(self.drop_out, (int, float)) or not 0 <= self.drop_out < 1:
+            raise ValueError(f"agent spec: drop_out must be in [0, 1), got {self.drop_out!r}")
+        self.sph_params()
+        self.static_control()
+
+    def sph_params(self) -> SPHParams:
+        p = dict(self.params)
+        if "domain" in p:
+            p["domain"] = tuple(p["domain"])
+        try:
+            return SPHParams(**p)
+        except TypeError as exc:
+            raise ValueError(f"agent spec: params: {exc}") from None
+
+    def static_control(self) -> Control:
+        try:
+            c = Control(**self.control)
+        except TypeError as exc:
+            raise ValueError(f"agent spec: control: {exc}") from None
+        for name, v in asdict(c).items():
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"agent spec: control.{name} must be a finite number, got {v!r}")
+        return c

@@ -1,0 +1,61 @@
+"""Binary state record exchanged between agents (wire format v1), encoded and decoded only here.
+
+Layout, little-endian, 88 bytes (docs/protocol.md):
+
+    offset  type     field
+    0       u8       version (= 1)
+    1       u8       kind (= 1, state)
+    2       u16      flags (bit 0: frozen, the particle left the domain)
+    4       u32      agent id
+    8       u32      step
+    12      u16      particle class (from the gesture command; 0 if none)
+    14      u16      reserved (0)
+    16      9 x f64  x, y, vx, vy, rho, p, sxx, sxy, syy   (SI units; rho/p/s of the previous step)
+
+Messages come from the network and are untrusted: `decode_state` checks length, version, kind, finiteness
+and ranges, and returns None (the caller counts the rejection) instead of raising.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+
+from agent.sph.particle import FROZEN, NFIELDS
+
+VERSION = 1
+KIND_STATE = 1
+_HEADER = struct.Struct("<BBHIIHH")
+_RECORD = struct.Struct("<BBHIIHH9d")
+STATE_SIZE = _RECORD.size  # 88
+MAX_ID = 2**31 - 1
+MAX_ABS = 1e12  # larger magnitudes are garbage, not physics
+
+# Reasons a message is rejected (the counters' names).
+REJECT_LENGTH = "length"
+REJECT_VERSION = "version"
+REJECT_VALUE = "value"
+
+
+def encode_state(agent_id: int, step: int, state, particle_class: int = 0) -> bytes:
+    flags = 1 if state[FROZEN] != 0.0 else 0
+    return _RECORD.pack(VERSION, KIND_STATE, flags, agent_id, step, particle_class, 0, *map(float, state[:9]))
+
+
+def decode_state(data: bytes):
+    """(agent_id, step, particle_class, values[10]) or (None, reason) for a malformed record."""
+    if len(data) != STATE_SIZE:
+        return None, REJECT_LENGTH
+    version, kind, flags, agent_id, step, particle_class, _reserved, *values = _RECORD.unpack(data)
+    if version != VERSION or kind != KIND_STATE:
+        return None, REJECT_VERSION
+    if agent_id > MAX_ID or flags > 1:
+        return None, REJECT_VALUE
+    for v in values:
+        if not math.isfinite(v) or abs(v) > MAX_ABS:
+            return None, REJECT_VALUE
+    if values[4] <= 0.0:  # a density must be positive
+        return None, REJECT_VALUE
+    values.append(float(flags & 1))
+    assert len(values) == NFIELDS
+    return (agent_id, step, particle_class, values), None
