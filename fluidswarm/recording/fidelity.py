@@ -9,9 +9,10 @@ just cover T):
 - inside   = fraction of particles inside T dilated by r_d (as in swarm shape-assembly papers)
 - coverage = fraction of T's skeleton pixels within 2 * r_d of a particle
 
-Everything is rasterised in pixel space on one grid: the mask's own resolution, refined by an integer
-factor when the mask is tiny or r_d is under a few pixels, coarsened only when the particles are spread so
-far from the picture that the grid would exceed `_MAX_GRID_PIXELS`.
+Areas are counted in cells of one grid in pixel space: the mask's own pixels, split k x k when the mask
+is tiny or r_d is under a few pixels. A disc covers the cells whose centres it contains; the grid is
+unbounded, so particles far outside the picture still count fully in |T ∪ F|. The skeleton (Zhang-Suen)
+is taken at the mask's resolution, shrunk for masks over `_MAX_SKELETON_SIDE` pixels across.
 """
 
 from __future__ import annotations
@@ -29,8 +30,6 @@ from fluidswarm.recording.skeleton import skeletonize
 _MIN_DISC_RADIUS_PX = 4.0  # refine the grid until a disc spans at least this many grid pixels
 _MIN_MASK_SIDE_PX = 64  # ... and the mask's shorter side at least this many
 _MAX_REFINE = 16
-_MAX_GRID_PIXELS = 4_000_000
-_SUBPIXEL_BITS = 4  # cv2.circle fixed-point precision
 _MAX_SKELETON_SIDE = 160  # thin large masks at a reduced resolution
 
 
@@ -41,46 +40,33 @@ class Fidelity:
     coverage: float
 
 
-@dataclass(frozen=True)
-class _Grid:
-    """Grid pixel (row i, col j) covers mask-pixel coordinates u in [u0 + j*s, u0 + (j+1)*s), same for v."""
+def _disc_cells(centres: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grid cells (row, col) whose centre (k + 0.5) lies within r of each centre, and each cell's particle.
 
-    u0: float
-    v0: float
-    s: float  # grid pixel size in mask pixels (< 1 refines, > 1 coarsens)
-    rows: int
-    cols: int
-
-    def to_grid(self, uv: np.ndarray) -> np.ndarray:
-        """Continuous mask-pixel coordinates -> continuous grid coordinates (pixel centres at k + 0.5)."""
-        return np.stack([(uv[:, 0] - self.u0) / self.s, (uv[:, 1] - self.v0) / self.s], axis=1)
-
-    def sample(self, mask: np.ndarray) -> np.ndarray:
-        """The mask resampled onto this grid (nearest: the mask pixel under each grid pixel's centre)."""
-        u = self.u0 + (np.arange(self.cols) + 0.5) * self.s
-        v = self.v0 + (np.arange(self.rows) + 0.5) * self.s
-        uj, vi = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
-        col_ok = (uj >= 0) & (uj < mask.shape[1])
-        row_ok = (vi >= 0) & (vi < mask.shape[0])
-        out = np.zeros((self.rows, self.cols), dtype=bool)
-        out[np.ix_(row_ok, col_ok)] = mask[np.ix_(vi[row_ok], uj[col_ok])]
-        return out
+    Works on an unbounded grid, so particles far from the picture cost no more than near ones; the cell
+    under a centre always counts, so a sub-cell disc is never empty.
+    """
+    reach = math.ceil(r) + 1
+    off = np.arange(-reach, reach + 1)
+    dj, di = (a.ravel() for a in np.meshgrid(off, off))
+    base = np.floor(centres).astype(np.int64)
+    cols = base[:, :1] + dj[None, :]
+    rows = base[:, 1:] + di[None, :]
+    d2 = (cols + 0.5 - centres[:, :1]) ** 2 + (rows + 0.5 - centres[:, 1:]) ** 2
+    hit = (d2 <= r * r) | ((di == 0) & (dj == 0))[None, :]
+    particle = np.nonzero(hit)[0]
+    return rows[hit], cols[hit], particle
 
 
-def _make_grid(mask_shape: tuple[int, int], uv: np.ndarray, r_px: float) -> _Grid:
-    rows, cols = mask_shape
-    refine = max(1.0, _MIN_DISC_RADIUS_PX / r_px, _MIN_MASK_SIDE_PX / min(rows, cols))
-    s = 1.0 / min(math.ceil(refine), _MAX_REFINE)
-    pad = r_px + 2 * s
-    umin = min(0.0, float(uv[:, 0].min()) - r_px) - pad
-    vmin = min(0.0, float(uv[:, 1].min()) - r_px) - pad
-    umax = max(float(cols), float(uv[:, 0].max()) + r_px) + pad
-    vmax = max(float(rows), float(uv[:, 1].max()) + r_px) + pad
-    # keep grid lines on mask-pixel boundaries so sampling the mask is exact
-    umin, vmin = math.floor(umin), math.floor(vmin)
-    while math.ceil((umax - umin) / s) * math.ceil((vmax - vmin) / s) > _MAX_GRID_PIXELS:
-        s *= 2
-    return _Grid(u0=umin, v0=vmin, s=s, rows=math.ceil((vmax - vmin) / s), cols=math.ceil((umax - umin) / s))
+def _count_distinct(rows: np.ndarray, cols: np.ndarray) -> int:
+    """Number of distinct (row, col) cells."""
+    if len(rows) == 0:
+        return 0
+    rows0, cols0 = rows - rows.min(), cols - cols.min()
+    width = int(cols0.max()) + 1
+    if (int(rows0.max()) + 1) * width < 2**62:
+        return len(np.unique(rows0 * width + cols0))
+    return len(np.unique(np.stack([rows0, cols0], axis=1), axis=0))
 
 
 def _skeleton_points(mask: np.ndarray) -> np.ndarray:
@@ -125,29 +111,20 @@ def fidelity(target_mask: np.ndarray, transform: ImageToDomain, positions: np.nd
 
     r_px = math.sqrt(area_px / (math.pi * n))  # r_d = sqrt(area(T) / (pi N)), in mask pixels
     uv = transform.to_pixels(xy)
-    grid = _make_grid(mask.shape, uv, r_px)
-    t_grid = grid.sample(mask)
-    centres = grid.to_grid(uv)
-    r_grid = r_px / grid.s
+    k = min(_MAX_REFINE, math.ceil(max(1.0, _MIN_DISC_RADIUS_PX / r_px, _MIN_MASK_SIDE_PX / min(mask.shape))))
+    t_fine = np.repeat(np.repeat(mask, k, axis=0), k, axis=1)  # T on the grid, k x k cells per pixel
 
-    # F: union of discs. cv2 puts pixel centres at integer coordinates, ours are at k + 0.5.
-    f_grid = np.zeros((grid.rows, grid.cols), dtype=np.uint8)
-    one = 1 << _SUBPIXEL_BITS
-    fixed = np.round((centres - 0.5) * one).astype(np.int64)
-    radius = max(1, int(round(r_grid * one)))
-    for cx, cy in fixed:
-        cv2.circle(f_grid, (int(cx), int(cy)), radius, 1, thickness=-1, lineType=cv2.LINE_8, shift=_SUBPIXEL_BITS)
-    f_bool = f_grid.astype(bool)
-    inter = np.count_nonzero(t_grid & f_bool)
-    union = np.count_nonzero(t_grid | f_bool)
-    iou = inter / union if union else 0.0
+    # F = union of discs, as the set of grid cells they cover; T ∩ F = those cells that lie in T
+    rows, cols, particle = _disc_cells(uv * k, r_px * k)
+    in_picture = (rows >= 0) & (rows < t_fine.shape[0]) & (cols >= 0) & (cols < t_fine.shape[1])
+    in_t = np.zeros(len(rows), dtype=bool)
+    in_t[in_picture] = t_fine[rows[in_picture], cols[in_picture]]
+    f_cells, inter = _count_distinct(rows, cols), _count_distinct(rows[in_t], cols[in_t])
+    union = area_px * k * k + f_cells - inter
+    iou = inter / union
 
-    # inside: distance from each particle's grid pixel to the nearest T pixel <= r_d
-    dist_to_t = cv2.distanceTransform((~t_grid).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    cell = np.floor(centres).astype(np.int64)
-    on_grid = (cell[:, 0] >= 0) & (cell[:, 0] < grid.cols) & (cell[:, 1] >= 0) & (cell[:, 1] < grid.rows)
-    inside = np.zeros(n, dtype=bool)
-    inside[on_grid] = dist_to_t[cell[on_grid, 1], cell[on_grid, 0]] <= r_grid
+    # inside: a particle lies in T dilated by r_d iff its disc meets T
+    inside = np.bincount(particle[in_t], minlength=n) > 0
 
     # coverage: skeleton pixels of T within 2 r_d of a particle
     nearest, _ = cKDTree(uv).query(_skeleton_points(mask), k=1)
