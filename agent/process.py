@@ -241,8 +241,10 @@ class Agent:
             s.declare_subscriber(keys.command_key(run), self._on_command)
         self._update_subscriptions()
         cx, cy = keys.cell_of(self.state[X], self.state[Y], self.cell)
-        self.tokens = [s.liveliness().declare_token(keys.alive_key(run, spec.id)),
-                       s.liveliness().declare_token(keys.born_key(run, cx, cy, spec.id))]
+        # The born token first: the launcher's start barrier waits for alive tokens, so when it fires
+        # every born token is already known to the router and the step-0 query sees all of them.
+        self.tokens = [s.liveliness().declare_token(keys.born_key(run, cx, cy, spec.id)),
+                       s.liveliness().declare_token(keys.alive_key(run, spec.id))]
         try:
             if spec.join:
                 self._join()

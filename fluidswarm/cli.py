@@ -54,6 +54,8 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"fluidswarm {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # output piped into `head` and closed early
+        return 0
     except KeyboardInterrupt:
         print(f"fluidswarm {args.command}: interrupted", file=sys.stderr)
         return 130
