@@ -28,6 +28,9 @@ from agent import keys
 from agent.session import router_config
 from agent.spec import AgentSpec
 from agent.sph.particle import Control
+from agent.wire import STATE_SIZE
+
+_STEP = __import__("struct").Struct("<I")
 
 _PR_SET_PDEATHSIG = 1
 
@@ -120,6 +123,29 @@ class Launcher:
             self.session.liveliness().declare_subscriber(keys.alive_expr(self.run), self._on_alive, history=True),
         ]
         self.closed = False
+        self.step_times: dict[int, float] = {}  # step -> wall time its first state was seen
+        self.max_step = -1
+
+    def track_progress(self) -> None:
+        """Watch every state message (a passive observer, like the recorder) to follow the run's step."""
+        self._subs.append(self.session.declare_subscriber(keys.state_all_expr(self.run), self._on_state))
+
+    def _on_state(self, sample) -> None:
+        data = sample.payload.to_bytes()
+        if len(data) != STATE_SIZE:
+            return
+        step = _STEP.unpack_from(data, 8)[0]
+        if step not in self.step_times and step <= self.max_step + 1000:
+            self.step_times[step] = time.monotonic()
+            if step > self.max_step:
+                self.max_step = step
+
+    def wait_step(self, step: int, timeout: float) -> None:
+        deadline = time.monotonic() + timeout
+        while self.max_step < step:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"run did not reach step {step} in {timeout:.0f} s")
+            time.sleep(0.01)
 
     # callbacks: tiny, under the lock
     def _on_final(self, sample) -> None:

@@ -1,0 +1,180 @@
+"""Agent processes over real Zenoh: exactness, locality, failures, untrusted input, clean shutdown."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import struct
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import zenoh
+
+from agent import keys
+from agent.launcher import Launcher, run_swarm
+from agent.session import client_config
+from agent.sph.particle import X, Y
+from agent.sph.reference import PerParticleDriver
+from agent.sph.setups import spread_block
+from agent.wire import STATE_SIZE, encode_state
+from tests.swarm_helpers import children_of, is_running
+
+
+def reference(setup, steps):
+    return PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
+
+
+def positions(res, ids):
+    return np.array([res.finals[i]["state"] for i in ids])[:, [X, Y]]
+
+
+def test_verify_command_is_exact_and_local():
+    r = subprocess.run([sys.executable, "-m", "fluidswarm", "verify", "--agents", "36", "--steps", "120"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    figures = dict(line.split("=", 1) for line in r.stdout.split())
+    print(figures)
+    assert float(figures["max_position_error"]) <= 1e-9
+    assert float(figures["msgs_per_agent_step"]) <= 3 * float(figures["neighbours_per_agent"])
+    assert float(figures["neighbours_per_agent"]) > 4
+    assert float(figures["steps_per_second"]) > 0
+
+
+def rate(step_times, a, b):
+    """Steps per second between steps a and b, from the times their first states were seen."""
+    return (b - a) / (step_times[b] - step_times[a])
+
+
+def test_sigkill_20_percent_at_step_100_the_rest_complete_and_recover():
+    setup = spread_block(30)
+    steps, kill_at = 300, 100
+    victims = [3, 8, 14, 20, 27, 29]
+    with Launcher(agent_timeout=2.0) as launcher:
+        launcher.track_progress()
+
+        def kill_at_step(la):
+            def go():
+                la.wait_step(kill_at, 120)
+                for v in victims:
+                    os.kill(la.swarm.procs[v].pid, signal.SIGKILL)
+            threading.Thread(target=go, daemon=True).start()
+
+        res = run_swarm(setup, steps, launcher=launcher, on_started=kill_at_step)
+        times = dict(launcher.step_times)
+    survivors = [i for i in setup.ids if i not in victims]
+    assert all(res.finals[i]["status"] == "done" and res.finals[i]["steps"] == steps for i in survivors)
+    assert not any(v in res.finals for v in victims)
+    before = rate(times, 50, kill_at)
+    after = rate(times, kill_at + 10, kill_at + 60)
+    print(f"steps/s before kill={before:.1f} after={after:.1f}")
+    assert after >= before / 2
+    assert sum(res.finals[i]["deaths_seen"] for i in survivors) > 0
+
+
+def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
+    setup = spread_block(16)
+    steps, timeout = 150, 1.0
+    frozen = 5
+    with Launcher(agent_timeout=timeout) as launcher:
+        launcher.track_progress()
+
+        def freeze(la):
+            def go():
+                la.wait_step(40, 120)
+                pid = la.swarm.procs[frozen].pid
+                os.kill(pid, signal.SIGSTOP)
+                time.sleep(3.0)
+                os.kill(pid, signal.SIGCONT)
+            threading.Thread(target=go, daemon=True).start()
+
+        res = run_swarm(setup, steps, launcher=launcher, on_started=freeze)
+        times = [launcher.step_times[s] for s in sorted(launcher.step_times) if s <= steps]
+        code = launcher.swarm.procs[frozen].wait(10)
+    others = [i for i in setup.ids if i != frozen]
+    assert all(res.finals[i]["steps"] == steps for i in others)
+    longest_stall = max(np.diff(times))
+    print(f"longest stall between steps: {longest_stall:.2f} s; frozen agent exit code {code}")
+    assert longest_stall < timeout + 1.5
+    # Documented behaviour: a resumed agent finds the swarm ahead of it and exits cleanly (code 3).
+    assert code == 3 and res.finals[frozen]["status"] == "fell_behind"
+
+
+def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
+    setup = spread_block(16)
+    steps = 80
+    stop = threading.Event()
+    sent = {"n": 0}
+
+    def rogue(la):
+        def go():
+            session = zenoh.open(client_config([la.endpoint]))
+            try:
+                good = encode_state(7, 0, setup.states[7])
+                bad = [
+                    good[:-3],  # wrong length
+                    bytes([9]) + good[1:],  # unknown version
+                    encode_state(7, 1, np.r_[math.nan, setup.states[7][1:]]),  # NaN
+                    encode_state(7, 1, np.r_[setup.states[7][:2], math.inf, setup.states[7][3:]]),  # inf
+                    encode_state(7, 4_000_000_000, setup.states[7]),  # step far from the current one
+                    b"",
+                ]
+                cells = {keys.cell_of(x, y, setup.params.h) for x, y in setup.states[:, :2]}
+                while not stop.is_set():
+                    for cx, cy in cells:
+                        for payload in bad:
+                            session.put(keys.state_key(la.run, cx, cy, 7), payload)
+                            sent["n"] += 1
+                    time.sleep(0.05)
+            finally:
+                session.close()
+        threading.Thread(target=go, daemon=True).start()
+
+    try:
+        res = run_swarm(setup, steps, on_started=rogue)
+    finally:
+        stop.set()
+    rejected = {}
+    for r in res.finals.values():
+        for k, v in r["rejected"].items():
+            rejected[k] = rejected.get(k, 0) + v
+    print(f"rogue sent {sent['n']}, rejected {rejected}")
+    assert sent["n"] > 0
+    assert rejected.get("length", 0) > 0 and rejected.get("version", 0) > 0
+    assert rejected.get("value", 0) > 0 and rejected.get("step", 0) > 0
+    error = np.abs(positions(res, setup.ids) - reference(setup, steps)[:, [X, Y]]).max()
+    assert error <= 1e-9
+
+
+def test_no_process_survives_a_normal_run_or_sigint():
+    setup = spread_block(8)
+    with Launcher() as launcher:
+        res = run_swarm(setup, 20, launcher=launcher)
+        pids = [p.pid for p in launcher.swarm.procs.values()]
+    assert len(res.finals) == 8
+    assert not any(is_running(p) for p in pids)
+
+    launch = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "8", "--steps", "100000"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = launch.stdout.readline()
+        assert first.startswith("run="), first
+        deadline = time.monotonic() + 60
+        kids: set[int] = set()
+        while len(kids) < 8 and time.monotonic() < deadline:
+            kids = children_of(launch.pid)
+            time.sleep(0.2)
+        assert len(kids) == 8
+        time.sleep(2.0)
+        launch.send_signal(signal.SIGINT)
+        code = launch.wait(30)
+    finally:
+        if launch.poll() is None:
+            launch.kill()
+    assert code != 0
+    assert "Traceback" not in launch.stderr.read()
+    time.sleep(0.5)
+    assert not any(is_running(p) for p in kids)
