@@ -6,24 +6,26 @@ The recorder process calls it; so can a centralised simulation. Topics mirror th
 Times `t` are the run's simulated time in seconds (>= 0): they become the MCAP log time (ns) and the
 Foxglove timestamps, and `check` compares event and state times on that one clock.
 
-Interruption: `close()` is idempotent and may be called from a signal handler or another thread. A
-`close()` that interrupts a write in progress on the same thread is deferred to the end of that write, so
-the file is always finished with a valid summary. Writes after `close()` are dropped and return False
-(late subscriber callbacks during shutdown are expected).
+Interruption: `write_*` validate and encode in the caller's thread, then queue the record for one
+writer thread, the only code that touches the MCAP writer. So a KeyboardInterrupt or SystemExit raised
+by a signal handler can never leave a chunk half-written; `close()` (idempotent, safe from signal
+handlers and any thread) queues the end and waits until the summary and footer are on disk. If the
+program exits without `close()`, the writer thread finishes the file when the main thread is gone.
+Writes after `close()` are dropped and return False (late subscriber callbacks during shutdown).
 """
 
 from __future__ import annotations
 
 import base64
-import contextlib
 import importlib.metadata
 import json
 import math
 import os
+import queue
 import subprocess
 import threading
 from pathlib import Path
-from typing import Iterable, Iterator, Sequence
+from typing import Callable, Iterable, Sequence
 
 import cv2
 import numpy as np
@@ -36,6 +38,7 @@ JSON_KEYS = "fluidswarm.json_keys"  # metadata entry listing the keys whose valu
 _IDENTITY_POSE = {"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
 FRAME_ID = "domain"
 _ELLIPSE_SEGMENTS = 48
+_STOP = object()  # end of the writer thread's queue
 
 
 def code_version() -> str:
@@ -104,10 +107,9 @@ class RunWriter:
         meta["run"] = self.run
         meta.setdefault("code_version", code_version())
         self.path = Path(path)
-        self._lock = threading.RLock()
-        self._writing_thread: int | None = None  # the thread inside a write, if any
-        self._close_requested = False
-        self._closed = False
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()  # put() is reentrant: safe in signal handlers
+        self._closing = False
+        self._error: BaseException | None = None
         self._stream = open(self.path, "wb")
         self._mcap = Writer(
             self._stream,
@@ -118,11 +120,13 @@ class RunWriter:
             use_statistics=True,
             use_summary_offsets=True,
         )
-        self._mcap.start(profile="", library=f"fluidswarm {code_version()}")
+        self._mcap.start(profile="", library=f"fluidswarm {meta['code_version']}")
         self._channels: dict[str, int] = {}
         self._schema_ids: dict[str, int] = {}
         self._targets = 0
         self._mcap.add_metadata("run", encode_metadata(meta))
+        self._thread = threading.Thread(target=self._drain, name=f"RunWriter[{self.path.name}]", daemon=False)
+        self._thread.start()
 
     # --- life cycle ---------------------------------------------------------------------------------
 
@@ -134,49 +138,65 @@ class RunWriter:
 
     @property
     def closed(self) -> bool:
-        return self._closed
+        """True once the file is finished."""
+        return not self._thread.is_alive()
 
     def close(self) -> None:
-        """Finish the file (summary, indexes, footer). Idempotent; safe from signal handlers and threads."""
-        if self._writing_thread == threading.get_ident():  # a signal handler interrupted our own write
-            self._close_requested = True
-            return
-        with self._lock:
-            self._finish()
+        """Finish the file (summary, indexes, footer) and wait for it. Idempotent; safe to call from a
+        signal handler or any thread. Raises RuntimeError if writing the file failed."""
+        if not self._closing:
+            self._closing = True
+            self._queue.put(_STOP)
+        if threading.current_thread() is not self._thread:
+            self._thread.join()
+        self._raise_if_failed()
 
-    def _finish(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
+    def _raise_if_failed(self) -> None:
+        if self._error is not None:
+            raise RuntimeError(f"recording to {self.path} failed: {self._error}") from self._error
+
+    def _drain(self) -> None:
+        """The writer thread: the only code that touches the MCAP writer, so an exception raised in the
+        main thread by a signal handler can never leave a chunk half-written."""
         try:
-            self._mcap.finish()
-            self._stream.flush()
-            os.fsync(self._stream.fileno())
+            while True:
+                try:
+                    op = self._queue.get(timeout=0.2)
+                except queue.Empty:
+                    if not threading.main_thread().is_alive():  # interpreter exiting without close()
+                        break
+                    continue
+                if op is _STOP:
+                    break
+                op()
+        except BaseException as exc:  # reported by close() and the next write
+            self._error = exc
         finally:
-            self._stream.close()
+            try:
+                self._mcap.finish()
+                self._stream.flush()
+                os.fsync(self._stream.fileno())
+            except BaseException as exc:
+                self._error = self._error or exc
+            finally:
+                self._stream.close()
+
+    def _submit(self, op: Callable[[], None]) -> bool:
+        if self._closing:
+            return False
+        self._raise_if_failed()
+        self._queue.put(op)
+        return True
 
     def _write(self, leaf: str, t: float, payload: dict, sequence: int = 0) -> bool:
         log_time = sc.seconds_to_ns(t)
         data = _dumps(payload)
-        with self._writing() as open_:
-            if open_:
-                channel = self._channel(leaf)
-                self._mcap.add_message(channel, log_time=log_time, data=data, publish_time=log_time,
-                                       sequence=sequence & 0xFFFFFFFF)
-            return open_
 
-    @contextlib.contextmanager
-    def _writing(self) -> Iterator[bool]:
-        """Hold the lock for one write; yields False if the file is already closed. A close() requested
-        meanwhile (signal handler on this thread) runs when the write is done."""
-        with self._lock:
-            self._writing_thread = threading.get_ident()
-            try:
-                yield not self._closed
-            finally:
-                self._writing_thread = None
-                if self._close_requested:
-                    self._finish()
+        def op() -> None:
+            self._mcap.add_message(self._channel(leaf), log_time=log_time, data=data, publish_time=log_time,
+                                   sequence=sequence & 0xFFFFFFFF)
+
+        return self._submit(op)
 
     def _channel(self, leaf: str) -> int:
         if leaf not in self._channels:
@@ -279,9 +299,7 @@ class RunWriter:
                           "points": [_point(x, y) for x, y in xy], "color": _color((80, 80, 80), 1.0),
                           "colors": [], "indices": []})
         payload = {"deletions": [], "entities": [self._entity(sc.stamp(t), "target", lines=lines)]}
-        with self._writing() as open_:
-            if not open_:
-                return False
+        def op() -> None:
             name = f"target/{self._targets}"
             self._targets += 1
             self._mcap.add_attachment(create_time=log_time, log_time=log_time, name=f"{name}.png",
@@ -289,6 +307,9 @@ class RunWriter:
             self._mcap.add_metadata(name, encode_metadata({
                 "t": float(t), "attachment": f"{name}.png", "rows": mask.shape[0], "cols": mask.shape[1],
                 **transform.as_dict()}))
+
+        if not self._submit(op):
+            return False
         return self._write(sc.SCENE, t, payload)
 
     def write_command(self, t: float, command_json: str) -> bool:
