@@ -56,7 +56,7 @@ def test_file_is_foxglove_ready_complete_and_holds_the_scenario(tmp_path):
     assert all(ids == set(range(12)) for ids in steps.values())
     assert {name for name, _, _ in schemas.values()} >= FOXGLOVE
     assert {(enc, msg_enc) for _, enc, msg_enc in schemas.values()} == {("jsonschema", "json")}
-    assert set(schemas) == {f"fluidswarm/demo/{leaf}" for leaf in ("state", "scene", "command", "perception/image", "events")}
+    assert set(schemas) == {f"fluidswarm/demo/{leaf}" for leaf in ("state", "scene", "command", "perception/image", "event")}
 
     with open(path, "rb") as fh:
         reader = make_reader(fh)

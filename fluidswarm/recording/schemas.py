@@ -21,7 +21,7 @@ def topic(run: str, leaf: str) -> str:
     return f"fluidswarm/{run}/{leaf}"
 
 
-STATE, SCENE, COMMAND, IMAGE, EVENTS = "state", "scene", "command", "perception/image", "events"
+STATE, SCENE, COMMAND, IMAGE, EVENTS = "state", "scene", "command", "perception/image", "event"
 
 # Packed layout of one particle in the point cloud's `data` (little-endian, 64 bytes). Every SPH field is
 # float64 so analysis recovers exactly what the agents computed; red/green/blue/alpha are the class colour.

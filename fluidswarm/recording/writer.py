@@ -330,7 +330,7 @@ class RunWriter:
 
     def write_event(self, t: float, level: int | str, name: str, message: str, *, kind: str | None = None,
                     agent: int | None = None, step: int | None = None) -> bool:
-        """A `foxglove.Log` on `fluidswarm/<run>/events`.
+        """A `foxglove.Log` on `fluidswarm/<run>/event`.
 
         `level` is a foxglove LogLevel (0-5) or its name ("info", ...); `name` the process (e.g.
         "agent/17"). For `check`, lifecycle events carry `kind` ("started" | "died"; also "froze",
