@@ -48,6 +48,8 @@ def _evenly(n: int, k: int) -> list[int]:
 def replay(path: str | Path, out: str | Path | None = None, *, max_frames: int = 120, fps: float = 10.0,
            progress: TextIO | None = None) -> ReplayResult:
     """Render `path` into `out` (default: `<RUN>_replay/` beside the file) and score the final formation."""
+    if max_frames < 2 or not fps > 0:
+        raise UserError(f"need --max-frames >= 2 and --fps > 0, got {max_frames} and {fps}")
     path = Path(path)
     run = load_run(path, images=False)
     if not run.frames:
@@ -57,8 +59,6 @@ def replay(path: str | Path, out: str | Path | None = None, *, max_frames: int =
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"{out}: cannot create output directory ({exc.strerror})") from None
-    if max_frames < 2 or not fps > 0:
-        raise UserError(f"need --max-frames >= 2 and --fps > 0, got {max_frames} and {fps}")
 
     frames = run.frames
     snap_idx = sorted({int(round(f * (len(frames) - 1))) for f in SNAPSHOT_FRACTIONS})
