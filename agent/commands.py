@@ -21,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--ids", help="start only this slice of the swarm on this host, e.g. 0-19 (multi-host)")
     p.add_argument("--run", help="run name (must match on every host of a split run)")
     p.add_argument("--timeout", type=float, default=2.0, help="s before a silent neighbour is dropped")
+    p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
     p.set_defaults(func=_launch)
 
     p = sub.add_parser("verify", help="N agent processes against the per-particle reference driver")
@@ -76,6 +77,9 @@ def _launch(args) -> int:
         raise UserError(str(exc)) from None
     with launcher:
         print(f"run={launcher.run} router={launcher.endpoint}", flush=True)
+        if args.record:
+            launcher.start_recorder(args.record, {"scenario": "launch", "agents": args.agents, "steps": args.steps,
+                                                  "params": setup.params.as_dict()}, setup.params.dt)
         res = run_swarm(setup, args.steps, launcher=launcher, ids=ids)
     print(f"agents={len(res.ids)}")
     print(f"finished={sum(1 for r in res.finals.values() if r['status'] == 'done')}")

@@ -177,6 +177,41 @@ class Launcher:
                 self.swarm.alive.discard(j)
             self.swarm.changed.notify_all()
 
+    def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0) -> subprocess.Popen:
+        """Start the passive MCAP recorder process (fluidswarm/recording/recorder.py) and wait until its
+        subscribers are declared (it then shows a liveliness token), so it misses no step."""
+        meta = dict(metadata)
+        meta.setdefault("run", self.run)
+        out = subprocess.DEVNULL if self.quiet else None
+        cmd = [sys.executable, "-m", "fluidswarm.recording.recorder", "--connect", self.endpoint, "--run", self.run,
+               "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta)]
+        if self.user:
+            cmd += ["--user", self.user, "--password", self.password]
+        self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+        deadline = time.monotonic() + timeout
+        key = f"{keys.PREFIX}/{self.run}/recorder"
+        while time.monotonic() < deadline:
+            if self.recorder.poll() is not None:
+                raise RuntimeError(f"recorder exited at start-up (code {self.recorder.returncode})")
+            if list(self.session.liveliness().get(key, timeout=1.0)):
+                return self.recorder
+            time.sleep(0.1)
+        raise TimeoutError(f"recorder not ready after {timeout:.0f} s")
+
+    def stop_recorder(self, timeout: float = 60.0) -> int | None:
+        """SIGTERM the recorder: it writes the pending steps and the MCAP footer, then exits."""
+        rec = getattr(self, "recorder", None)
+        if rec is None:
+            return None
+        if rec.poll() is None:
+            rec.terminate()
+            try:
+                rec.wait(timeout)
+            except subprocess.TimeoutExpired:
+                rec.kill()
+                rec.wait(5)
+        return rec.returncode
+
     def spec_for(self, agent_id: int, state: np.ndarray, control: Control, params, steps: int, **extra) -> AgentSpec:
         from dataclasses import asdict
 
@@ -253,6 +288,7 @@ class Launcher:
             if p.poll() is None:
                 p.kill()
         _wait_all(procs.values(), 5.0)
+        self.stop_recorder()
         for s in self._subs:
             try:
                 s.undeclare()

@@ -11,6 +11,7 @@ import json
 import math
 import queue
 import random
+import resource
 import signal
 import sys
 import time
@@ -311,6 +312,8 @@ class Agent:
             "msgs_received": c["msgs_received"], "neighbours": c["neighbours"], "rejected": dict(c["rejected"]),
             "timeouts": c["timeouts"], "deaths_seen": c["deaths_seen"], "stale": c["stale"],
             "dropped_out": c["dropped_out"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
+            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            "cpu_seconds": time.process_time(),
         }
         if self.controller is not None:
             msg.update(self.controller.report())

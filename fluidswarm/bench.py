@@ -1,0 +1,226 @@
+"""`fluidswarm bench [--quick]`: measured figures, side by side in one run, written to docs/benchmarks/.
+
+What it measures (issue 8): lockstep runs of agent processes for several N (steps/s, wall time, state
+messages per agent per step, CPU seconds, peak RSS per agent and in total, start-up time); the same set-ups
+through the per-particle and the vectorised centralised drivers (the cost of decentralisation); a log-log
+fit of step time against N; hand-gesture imitation wall time; eigen-image training time.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fluidswarm.errors import UserError
+
+FULL_NS = (25, 50, 100, 200, 300)
+QUICK_NS = (9, 16, 25)
+GESTURES = {"scissor": "2", "cylindrical": "0", "pinching": "0"}  # gesture -> sign-digit class of its photo
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bench", help="measure swarm scaling, decentralisation cost and perception speed")
+    p.add_argument("--quick", action="store_true", help="small N and few steps (CI): checks every field is produced")
+    p.add_argument("--out", default="docs/benchmarks", help="folder for results.json/.md/.png (default: %(default)s)")
+    p.add_argument("--ns", help="comma-separated agent counts (default: 25,50,100,200,300; quick: 9,16,25)")
+    p.add_argument("--steps", type=int, help="lockstep steps per run (default 300; quick 30)")
+    p.add_argument("--gesture-agents", type=int, help="agents per gesture imitation (default 300; quick 20)")
+    p.set_defaults(func=run)
+
+
+def machine() -> dict:
+    mem = 0
+    try:
+        with open("/proc/meminfo") as f:
+            mem = int(f.readline().split()[1]) // 1024
+    except OSError:
+        pass
+    return {"cores": os.cpu_count(), "memory_mb": mem, "python": platform.python_version(), "platform": platform.platform()}
+
+
+def lockstep(n: int, steps: int) -> dict:
+    import resource
+
+    from agent.launcher import Launcher, run_swarm
+    from agent.sph.reference import PerParticleDriver, VectorisedDriver
+    from agent.sph.setups import spread_block
+
+    setup = spread_block(n)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with Launcher(agent_timeout=10.0) as launcher:
+        res = run_swarm(setup, steps, launcher=launcher)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = [r for r in res.finals.values() if r.get("status") == "done"]
+    sps = res.steps_per_second()
+    rss = [r.get("rss_mb", 0.0) for r in res.finals.values()]
+
+    central_steps = min(steps, 60)
+    t = time.perf_counter()
+    PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(central_steps)
+    pp_sps = central_steps / (time.perf_counter() - t)
+    t = time.perf_counter()
+    VectorisedDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
+    vec_sps = steps / (time.perf_counter() - t)
+    return {
+        "n": n, "steps": steps, "agents_finished": len(done),
+        "steps_per_second": round(sps, 3),
+        "wall_seconds": round(steps / sps, 3) if sps else None,
+        "startup_seconds": round(res.startup_seconds, 3),
+        "msgs_per_agent_step": round(res.msgs_per_agent_step(), 3),
+        "neighbours_per_agent": round(res.neighbours_per_agent(), 3),
+        "cpu_seconds": round((after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), 2),
+        "rss_mb_per_agent": round(float(np.mean(rss)), 1) if rss else None,
+        "rss_mb_total": round(float(np.sum(rss)), 1),
+        "centralised_steps_per_second": round(pp_sps, 2),
+        "vectorised_steps_per_second": round(vec_sps, 2),
+        "decentralisation_ratio": round(pp_sps / sps, 3) if sps else None,
+        "decentralisation_ratio_vectorised": round(vec_sps / sps, 3) if sps else None,
+    }
+
+
+def fit_exponent(runs: list[dict]) -> float | None:
+    pts = [(r["n"], 1.0 / r["steps_per_second"]) for r in runs if r.get("steps_per_second")]
+    if len(pts) < 2:
+        return None
+    x = np.log([p[0] for p in pts])
+    y = np.log([p[1] for p in pts])
+    return round(float(np.polyfit(x, y, 1)[0]), 3)
+
+
+def gesture_image(cls: str) -> Path | None:
+    """The shipped photograph of a class if the repository has one, else the shared set's."""
+    here = Path(__file__).resolve().parent.parent
+    for folder in (here / "scenarios" / "inputs", here.parent / "shared" / "datasets" / "sign-language-digits" / cls):
+        if folder.is_dir():
+            cands = sorted(folder.glob(f"digit{cls}*.jpg")) if folder.name == "inputs" else sorted(folder.glob("*.jpg"))
+            if cands:
+                return cands[0]
+    return None
+
+
+def imitation_seconds(agents: int, steps: int | None) -> dict:
+    out: dict = {}
+    for gesture, cls in GESTURES.items():
+        image = gesture_image(cls)
+        if image is None:
+            out[gesture] = None
+            continue
+        cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents),
+               "--out", f"out/bench/{gesture}"]
+        if steps:
+            cmd += ["--steps", str(steps)]
+        t = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
+    return out
+
+
+def perception_timings() -> dict:
+    """Eigen-image training on the shared hand set, inference per image, region controller per frame."""
+    out = {"eigen_training_seconds": None, "eigen_inference_ms": None, "region_ms_per_frame": None}
+    try:
+        from perception import eigen
+    except ImportError:
+        return out
+    root = Path(__file__).resolve().parent.parent.parent / "shared" / "datasets" / "sign-language-digits"
+    if not root.is_dir() or not hasattr(eigen, "EigenClassifier"):
+        return out
+    try:
+        from perception.dataset import load_folder  # type: ignore[attr-defined]
+        images, labels = load_folder(root)[:2]
+        clf = eigen.EigenClassifier(method="best")
+        t = time.perf_counter()
+        clf.fit(images, labels)
+        out["eigen_training_seconds"] = round(time.perf_counter() - t, 3)
+        t = time.perf_counter()
+        clf.predict(images[:50])
+        out["eigen_inference_ms"] = round((time.perf_counter() - t) / 50 * 1000, 3)
+    except Exception as exc:  # report, do not hide: the figure stays null with the reason
+        out["perception_error"] = f"{type(exc).__name__}: {exc}"
+    return out
+
+
+def write_outputs(results: dict, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+    lines = [f"Measured {results['date']} on {results['machine']['cores']} cores, "
+             f"{results['machine']['memory_mb'] // 1024} GiB ({'quick' if results['quick'] else 'full'} run).", "",
+             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results["runs"]:
+        lines.append(f"| {r['n']} | {r['steps_per_second']} | {r['wall_seconds']} | {r['startup_seconds']} | {r['msgs_per_agent_step']} | "
+                     f"{r['neighbours_per_agent']} | {r['cpu_seconds']} | {r['rss_mb_per_agent']} | {r['rss_mb_total']} | "
+                     f"{r['centralised_steps_per_second']} | {r['vectorised_steps_per_second']} | {r['decentralisation_ratio']} |")
+    lines += ["", f"Step time ~ N^{results['step_time_exponent']} (log-log fit).", "",
+              "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in results["gesture_imitation_seconds"].items()),
+              f"(with {results['gesture_agents']} agent processes; thesis Table 6.1: 126-219 s per gesture)", "",
+              f"Eigen-image training: {results['eigen_training_seconds']} s; inference {results.get('eigen_inference_ms')} ms/image."]
+    (out / "results.md").write_text("\n".join(lines) + "\n")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    ns = [r["n"] for r in results["runs"]]
+    ax.loglog(ns, [r["steps_per_second"] for r in results["runs"]], "o-", label="agent processes (Zenoh)")
+    ax.loglog(ns, [r["centralised_steps_per_second"] for r in results["runs"]], "s--", label="per-particle driver")
+    ax.loglog(ns, [r["vectorised_steps_per_second"] for r in results["runs"]], "^:", label="vectorised driver")
+    ax.set_xlabel("particles N")
+    ax.set_ylabel("steps per second")
+    ax.legend()
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "results.png")
+    plt.close(fig)
+
+
+def run(args) -> int:
+    if args.ns:
+        try:
+            ns = tuple(int(v) for v in args.ns.split(","))
+        except ValueError:
+            raise UserError(f"--ns {args.ns!r}: expected comma-separated integers") from None
+        if any(n < 2 for n in ns):
+            raise UserError(f"--ns {args.ns!r}: every N must be >= 2")
+    else:
+        ns = QUICK_NS if args.quick else FULL_NS
+    steps = args.steps or (30 if args.quick else 300)
+    if steps < 2:
+        raise UserError(f"--steps: must be >= 2, got {steps}")
+    gesture_agents = args.gesture_agents or (20 if args.quick else 300)
+    runs = []
+    for n in ns:
+        print(f"lockstep N={n} ...", file=sys.stderr, flush=True)
+        r = lockstep(n, steps)
+        print(f"n={n} steps_per_second={r['steps_per_second']} msgs_per_agent_step={r['msgs_per_agent_step']} "
+              f"rss_mb_per_agent={r['rss_mb_per_agent']} decentralisation_ratio={r['decentralisation_ratio']}", flush=True)
+        runs.append(r)
+    print("gesture imitation ...", file=sys.stderr, flush=True)
+    gestures = imitation_seconds(gesture_agents, 60 if args.quick else None)
+    perception = perception_timings()
+    results = {
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "quick": bool(args.quick),
+        "machine": machine(),
+        "runs": runs,
+        "step_time_exponent": fit_exponent(runs),
+        "gesture_agents": gesture_agents,
+        "gesture_imitation_seconds": gestures,
+        **perception,
+    }
+    write_outputs(results, Path(args.out))
+    print(f"step_time_exponent={results['step_time_exponent']}")
+    for g, v in gestures.items():
+        print(f"gesture_imitation_seconds[{g}]={v}")
+    print(f"eigen_training_seconds={results['eigen_training_seconds']}")
+    print(f"results={Path(args.out) / 'results.json'}")
+    return 0

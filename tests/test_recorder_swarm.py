@@ -1,0 +1,73 @@
+"""The recorder process on real swarms: complete MCAP files after normal runs, kills, and SIGINT."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+from mcap.reader import make_reader
+
+from agent.launcher import Launcher, run_swarm
+from agent.sph.setups import spread_block
+from fluidswarm.recording.reader import check, load_run
+
+FOXGLOVE = {"foxglove.PointCloud", "foxglove.Log"}
+
+
+def schemas_and_metadata(path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        names = {s.name for s in summary.schemas.values()}
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+    return names, meta
+
+
+def test_recorder_complete_after_20_percent_killed(tmp_path):
+    setup = spread_block(20)
+    path = tmp_path / "run.mcap"
+    victims = (2, 7, 11, 15)
+    with Launcher() as la:
+        la.start_recorder(str(path), {"scenario": "kill-test", "agent_ids": list(range(20))}, setup.params.dt)
+        la.track_progress()
+
+        def kill(l):
+            def go():
+                l.wait_step(30, 60)
+                for v in victims:
+                    os.kill(l.swarm.procs[v].pid, signal.SIGKILL)
+            threading.Thread(target=go, daemon=True).start()
+
+        run_swarm(setup, 90, launcher=la, on_started=kill)
+    complete, steps, missing = check(path)
+    assert (complete, missing) == (True, 0) and steps >= 90
+    names, meta = schemas_and_metadata(path)
+    assert FOXGLOVE <= names
+    assert "kill-test" in meta["run"]["scenario"]
+    run = load_run(path, images=False)
+    # Victims die mid-run; everyone else leaves only after the last step.
+    died_early = {e.agent for e in run.events if e.kind == "died" and e.step < 90}
+    assert died_early == set(victims)
+    # Every step before the kill holds all 20 agents; the victims vanish after their death event.
+    assert len(run.frames[10].ids) == 20 and len(run.frames[-1].ids) == 16
+
+
+def test_recorder_file_finished_after_sigint_to_launcher(tmp_path):
+    path = tmp_path / "interrupted.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "9", "--steps", "100000",
+                             "--record", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().startswith("run=")
+        time.sleep(6.0)
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    complete, steps, missing = check(path)
+    assert steps > 5
+    assert complete and missing == 0
