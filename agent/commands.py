@@ -22,6 +22,8 @@ def register(sub) -> None:
     p.add_argument("--run", help="run name (must match on every host of a split run)")
     p.add_argument("--timeout", type=float, default=2.0, help="s before a silent neighbour is dropped")
     p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
+    p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
+    p.add_argument("--password", default="")
     p.set_defaults(func=_launch)
 
     p = sub.add_parser("verify", help="N agent processes against the per-particle reference driver")
@@ -29,6 +31,10 @@ def register(sub) -> None:
     p.add_argument("--steps", type=int, default=300)
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
     p.add_argument("--timeout", type=float, default=5.0, help="s before a silent neighbour is dropped")
+    p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
+    p.add_argument("--run", help="run name shared by every host of a split run")
+    p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
+    p.add_argument("--password", default="")
     p.set_defaults(func=_verify)
 
 
@@ -72,7 +78,8 @@ def _launch(args) -> int:
     setup = spread_block(args.agents)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     try:
-        launcher = Launcher(run=args.run, connect=args.connect, agent_timeout=args.timeout)
+        launcher = Launcher(run=args.run, connect=args.connect, agent_timeout=args.timeout,
+                            user=args.user, password=args.password)
     except ValueError as exc:
         raise UserError(str(exc)) from None
     with launcher:
@@ -80,7 +87,7 @@ def _launch(args) -> int:
         if args.record:
             launcher.start_recorder(args.record, {"scenario": "launch", "agents": args.agents, "steps": args.steps,
                                                   "params": setup.params.as_dict()}, setup.params.dt)
-        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids)
+        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids))
     print(f"agents={len(res.ids)}")
     print(f"finished={sum(1 for r in res.finals.values() if r['status'] == 'done')}")
     print(f"steps_per_second={res.steps_per_second():.2f}")
@@ -98,16 +105,24 @@ def _verify(args) -> int:
 
     _check_counts(args.agents, args.steps)
     setup = spread_block(args.agents)
-    with Launcher(connect=args.connect, agent_timeout=args.timeout) as launcher:
-        res = run_swarm(setup, args.steps, launcher=launcher)
+    ids = parse_ids(args.ids, args.agents) if args.ids else list(setup.ids)
+    if args.ids and not args.run:
+        raise UserError("--ids needs --run: every host of a split run must use the same run name")
+    try:
+        launcher = Launcher(run=args.run, connect=args.connect, agent_timeout=args.timeout,
+                            user=args.user, password=args.password)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    with launcher:
+        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids))
     reference = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(args.steps)
-    missing = [i for i in setup.ids if i not in res.finals or res.finals[i]["status"] != "done"]
+    missing = [i for i in ids if i not in res.finals or res.finals[i]["status"] != "done"]
     if missing:
         print(f"fluidswarm verify: {len(missing)} agents did not finish (first: {missing[:5]})", file=sys.stderr)
         error = float("inf")
     else:
-        got = np.array([res.finals[i]["state"] for i in setup.ids])
-        error = float(np.abs(got[:, [X, Y]] - reference[:, [X, Y]]).max())
+        got = np.array([res.finals[i]["state"] for i in ids])
+        error = float(np.abs(got[:, [X, Y]] - reference[ids][:, [X, Y]]).max())
     print(f"max_position_error={error:.3e}")
     print(f"msgs_per_agent_step={res.msgs_per_agent_step():.3f}")
     print(f"neighbours_per_agent={res.neighbours_per_agent():.3f}")

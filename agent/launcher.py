@@ -234,7 +234,7 @@ class Launcher:
         with self.swarm.changed:
             while not want <= self.swarm.alive:
                 left = deadline - time.monotonic()
-                dead = [i for i in want if self.swarm.procs.get(i) and self.swarm.procs[i].poll() is not None]
+                dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
                 if dead:
                     raise RuntimeError(f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})")
                 if left <= 0:
@@ -315,10 +315,12 @@ def _wait_all(procs, timeout: float) -> None:
 
 def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_timeout: float | None = None,
               run_timeout: float | None = None, on_started: Callable[[Launcher], None] | None = None,
-              progress: Callable[[], None] | None = None, ids=None, **spec_extra) -> SwarmResult:
+              progress: Callable[[], None] | None = None, ids=None, swarm_ids=None, **spec_extra) -> SwarmResult:
     """Run `setup` (agent.sph.setups.Setup) through one agent process per particle, lockstep, `steps` steps.
 
     With a `launcher` given, the caller owns it (and closes it); otherwise one is made and closed here.
+    `ids` is the slice started on this host; `swarm_ids` the whole swarm, whose alive tokens the start
+    barrier waits for (other hosts start the rest), so nobody steps before every subscriber is known.
     """
     own = launcher is None
     launcher = launcher or Launcher()
@@ -330,7 +332,8 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         for i in chosen:
             k = index[i]
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **spec_extra))
-        launcher.wait_alive(chosen, startup_timeout or 30.0 + 0.3 * len(chosen))
+        everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
+        launcher.wait_alive(everyone, startup_timeout or 30.0 + 0.3 * len(everyone))
         startup = time.monotonic() - t0
         t1 = time.monotonic()
         launcher.start()

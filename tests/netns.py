@@ -1,0 +1,75 @@
+"""A test harness of "hosts" as Linux network namespaces joined by veth pairs (needs root and iproute2).
+
+Only addresses inside these namespaces are used (10.77.x.y on veth links that exist only in them).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import uuid
+
+
+class NetnsUnavailable(RuntimeError):
+    pass
+
+
+def _ip(*args: str) -> None:
+    subprocess.run(["ip", *args], check=True, capture_output=True, text=True)
+
+
+class Hosts:
+    """Namespaces `a`, `b`, `c`; links a<->b (10.77.0.1 / .2) and a<->c (10.77.1.1 / .2)."""
+
+    LINKS = (("a", "b", "10.77.0.1", "10.77.0.2"), ("a", "c", "10.77.1.1", "10.77.1.2"))
+
+    def __init__(self):
+        if os.geteuid() != 0 or shutil.which("ip") is None:
+            raise NetnsUnavailable("network namespaces need root and iproute2 ('ip')")
+        tag = uuid.uuid4().hex[:6]
+        self.ns = {h: f"fs{tag}{h}" for h in "abc"}
+        self.addr = {}
+        self.procs: list[subprocess.Popen] = []
+        try:
+            for name in self.ns.values():
+                _ip("netns", "add", name)
+                _ip("-n", name, "link", "set", "lo", "up")
+            for k, (h1, h2, a1, a2) in enumerate(self.LINKS):
+                v1, v2 = f"v{tag}{k}x", f"v{tag}{k}y"
+                _ip("link", "add", v1, "type", "veth", "peer", "name", v2)
+                _ip("link", "set", v1, "netns", self.ns[h1])
+                _ip("link", "set", v2, "netns", self.ns[h2])
+                _ip("-n", self.ns[h1], "addr", "add", f"{a1}/24", "dev", v1)
+                _ip("-n", self.ns[h2], "addr", "add", f"{a2}/24", "dev", v2)
+                _ip("-n", self.ns[h1], "link", "set", v1, "up")
+                _ip("-n", self.ns[h2], "link", "set", v2, "up")
+                self.addr[(h1, h2)], self.addr[(h2, h1)] = a1, a2
+        except subprocess.CalledProcessError as exc:
+            self.close()
+            raise NetnsUnavailable(f"cannot create namespaces: {exc.stderr.strip()}") from None
+
+    def popen(self, host: str, cmd: list[str], **kw) -> subprocess.Popen:
+        proc = subprocess.Popen(["ip", "netns", "exec", self.ns[host], *cmd], **kw)
+        self.procs.append(proc)
+        return proc
+
+    def close(self) -> None:
+        for p in self.procs:
+            if p.poll() is None:
+                p.terminate()
+        for p in self.procs:
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait(5)
+        for name in self.ns.values():
+            subprocess.run(["ip", "netns", "pids", name], capture_output=True)
+            out = subprocess.run(["ip", "netns", "pids", name], capture_output=True, text=True).stdout.split()
+            for pid in out:
+                try:
+                    os.kill(int(pid), 9)
+                except (ProcessLookupError, ValueError):
+                    pass
+            subprocess.run(["ip", "netns", "del", name], capture_output=True)
