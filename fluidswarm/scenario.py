@@ -1,0 +1,161 @@
+"""Scenario files (`scenarios/*.toml`): read with tomllib into typed dataclasses, validated once.
+
+An unknown key or a bad value is a `UserError` naming the file, the key and the problem.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+from agent.sph.params import SPHParams
+from fluidswarm.errors import UserError
+
+CONTROLLERS = ("region", "pca", "ann", "none")
+SYNC_MODES = ("lockstep", "async")
+FAILURE_KINDS = ("kill", "freeze", "drop", "kill_coordinator", "late_join")
+EXPERIMENTS = ("imitate", "branching", "drag")
+
+
+@dataclass(frozen=True)
+class Failure:
+    """One injected failure.
+
+    kind      kill (SIGKILL `count` agents) | freeze (SIGSTOP `count` agents for `seconds`, then SIGCONT) |
+              drop (agent `agent` drops `fraction` of its outgoing states from the start) |
+              kill_coordinator | late_join (`count` extra agents start)
+    at_step   step at which it happens (drop: ignored, active from the start)
+    """
+
+    kind: str
+    at_step: int = 0
+    count: int = 1
+    seconds: float = 3.0
+    fraction: float = 0.3
+    agent: int = 0
+
+
+@dataclass(frozen=True)
+class PassCriteria:
+    """The run fails (non-zero exit) below these figures."""
+
+    min_fidelity_iou: float = 0.0
+    min_fidelity_inside: float = 0.0
+    min_branch_gap: float = 0.0  # m, for experiments measuring a split
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    path: Path
+    experiment: str = "imitate"
+    input: str = ""  # image, folder of frames or video; relative to the scenario file or the repo
+    controller: str = "region"
+    agents: int = 60
+    steps: int = 0  # 0: the experiment's default
+    dt: float = 0.0  # 0: the experiment's default
+    seed: int = 0
+    sync: str = "lockstep"
+    sph: dict = field(default_factory=dict)
+    failures: tuple[Failure, ...] = ()
+    passing: PassCriteria = PassCriteria()
+    description: str = ""
+
+    def input_path(self) -> Path | None:
+        if not self.input:
+            return None
+        p = Path(self.input)
+        for base in (self.path.parent, self.path.parent.parent, Path.cwd()):
+            if (base / p).exists():
+                return (base / p).resolve()
+        return p
+
+
+def _typed(file: str, key: str, value, kind):
+    ok = {
+        int: isinstance(value, int) and not isinstance(value, bool),
+        float: isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value),
+        str: isinstance(value, str),
+        dict: isinstance(value, dict),
+    }[kind]
+    if not ok:
+        raise UserError(f"{file}: key '{key}': expected {kind.__name__}, got {value!r}")
+    return float(value) if kind is float else value
+
+
+def _check_keys(file: str, where: str, table: dict, allowed) -> None:
+    for k in table:
+        if k not in allowed:
+            raise UserError(f"{file}: key '{where}{k}': unknown key (allowed: {', '.join(sorted(allowed))})")
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    path = Path(path)
+    file = str(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise UserError(f"{file}: no such scenario file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{file}: cannot read ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"{file}: not valid TOML ({exc})") from None
+    top = {"name", "description", "experiment", "input", "controller", "agents", "steps", "dt", "seed", "sync",
+           "sph", "failures", "pass"}
+    _check_keys(file, "", raw, top)
+    kw: dict = {"name": _typed(file, "name", raw.get("name", path.stem), str), "path": path}
+    for key, kind in (("description", str), ("experiment", str), ("input", str), ("controller", str),
+                      ("agents", int), ("steps", int), ("dt", float), ("seed", int), ("sync", str)):
+        if key in raw:
+            kw[key] = _typed(file, key, raw[key], kind)
+    if kw.get("experiment", "imitate") not in EXPERIMENTS:
+        raise UserError(f"{file}: key 'experiment': must be one of {EXPERIMENTS}, got {kw['experiment']!r}")
+    if kw.get("controller", "region") not in CONTROLLERS:
+        raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
+    if kw.get("sync", "lockstep") not in SYNC_MODES:
+        raise UserError(f"{file}: key 'sync': must be one of {SYNC_MODES}, got {kw['sync']!r}")
+    if not 1 <= kw.get("agents", 60) <= 2000:
+        raise UserError(f"{file}: key 'agents': must be in 1..2000, got {kw['agents']}")
+    if kw.get("steps", 0) < 0:
+        raise UserError(f"{file}: key 'steps': must be >= 0, got {kw['steps']}")
+    if kw.get("dt", 0.0) < 0:
+        raise UserError(f"{file}: key 'dt': must be > 0, got {kw['dt']}")
+    if kw.get("experiment", "imitate") == "imitate" and not kw.get("input"):
+        raise UserError(f"{file}: key 'input': an imitation scenario needs an input image, folder or video")
+    sph = _typed(file, "sph", raw.get("sph", {}), dict)
+    allowed_sph = {f.name for f in fields(SPHParams)}
+    _check_keys(file, "sph.", sph, allowed_sph)
+    try:
+        SPHParams(**{k: (tuple(v) if k == "domain" else v) for k, v in sph.items()})
+    except (ValueError, TypeError) as exc:
+        raise UserError(f"{file}: key 'sph': {exc}") from None
+    kw["sph"] = sph
+    failures = []
+    raw_f = raw.get("failures", [])
+    if not isinstance(raw_f, list):
+        raise UserError(f"{file}: key 'failures': expected an array of tables ([[failures]])")
+    allowed_f = {f.name for f in fields(Failure)}
+    for k, item in enumerate(raw_f):
+        where = f"failures[{k}]."
+        if not isinstance(item, dict):
+            raise UserError(f"{file}: key 'failures[{k}]': expected a table")
+        _check_keys(file, where, item, allowed_f)
+        kind = _typed(file, where + "kind", item.get("kind", ""), str)
+        if kind not in FAILURE_KINDS:
+            raise UserError(f"{file}: key '{where}kind': must be one of {FAILURE_KINDS}, got {kind!r}")
+        f = {"kind": kind}
+        for key, t in (("at_step", int), ("count", int), ("seconds", float), ("fraction", float), ("agent", int)):
+            if key in item:
+                f[key] = _typed(file, where + key, item[key], t)
+        if f.get("at_step", 0) < 0 or f.get("count", 1) < 0 or f.get("seconds", 1.0) <= 0 or f.get("agent", 0) < 0:
+            raise UserError(f"{file}: key '{where}': at_step/count/agent must be >= 0 and seconds > 0")
+        if not 0 <= f.get("fraction", 0.3) < 1:
+            raise UserError(f"{file}: key '{where}fraction': must be in [0, 1), got {f['fraction']}")
+        failures.append(Failure(**f))
+    kw["failures"] = tuple(failures)
+    passing = _typed(file, "pass", raw.get("pass", {}), dict)
+    _check_keys(file, "pass.", passing, {f.name for f in fields(PassCriteria)})
+    kw["passing"] = PassCriteria(**{k: _typed(file, "pass." + k, v, float) for k, v in passing.items()})
+    return Scenario(**kw)
