@@ -30,7 +30,7 @@ def register(sub) -> None:
     p.add_argument("--agents", type=int, default=64)
     p.add_argument("--steps", type=int, default=300)
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
-    p.add_argument("--timeout", type=float, default=5.0, help="s before a silent neighbour is dropped")
+    p.add_argument("--timeout", type=float, default=15.0, help="s before a silent neighbour is dropped")
     p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
     p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
