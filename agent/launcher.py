@@ -315,7 +315,8 @@ def _wait_all(procs, timeout: float) -> None:
 
 def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_timeout: float | None = None,
               run_timeout: float | None = None, on_started: Callable[[Launcher], None] | None = None,
-              progress: Callable[[], None] | None = None, ids=None, swarm_ids=None, **spec_extra) -> SwarmResult:
+              progress: Callable[[], None] | None = None, ids=None, swarm_ids=None, per_agent: dict | None = None,
+              **spec_extra) -> SwarmResult:
     """Run `setup` (agent.sph.setups.Setup) through one agent process per particle, lockstep, `steps` steps.
 
     With a `launcher` given, the caller owns it (and closes it); otherwise one is made and closed here.
@@ -331,7 +332,8 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         t0 = time.monotonic()
         for i in chosen:
             k = index[i]
-            launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **spec_extra))
+            extra = {**spec_extra, **(per_agent or {}).get(i, {})}
+            launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
         everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
         launcher.wait_alive(everyone, startup_timeout or 30.0 + 0.3 * len(everyone))
         startup = time.monotonic() - t0

@@ -73,3 +73,15 @@ def spread_block(n: int = 64, spacing: float = 1.0, params: SPHParams | None = N
     controls = [Control(wx=centre[0], wy=centre[1], r=1.0, s=3.0, alpha=0.5, beta=b, mu=params.mu) for b in betas]
     classes = (betas > 2).astype(int)
     return Setup(np.arange(n), states, controls, classes, ("beta 2", "beta 20"), params)
+
+
+def drag(n: int = 49, mu: float = 2.0, push: float = 1.0, params: SPHParams | None = None) -> Setup:
+    """Viscosity drag (thesis §4.7): a square block at rest; only its centre particle is pushed along +x."""
+    params = params or SPHParams(mu=mu, domain=(-50.0, 80.0, -50.0, 80.0), border="reflect")
+    columns = max(1, int(round(np.sqrt(n))))
+    pos = lattice(n, columns)
+    centre = int(np.argmin(np.hypot(pos[:, 0] - pos[:, 0].mean(), pos[:, 1] - pos[:, 1].mean())))
+    states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
+    controls = [Control(mu=mu, beta=2.0, push_x=push if k == centre else 0.0) for k in range(n)]
+    classes = np.where(np.arange(n) == centre, 1, 0)
+    return Setup(np.arange(n), states, controls, classes, ("fluid", "pushed"), params)

@@ -1,0 +1,78 @@
+"""Failure injection during a run: SIGKILL, SIGSTOP/SIGCONT, late joiners, coordinator kill.
+
+Each failure fires when the run (followed by the launcher's progress tracking) reaches its step. Victims
+are chosen deterministically from the seed, so a scenario replays the same failures.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+
+
+@dataclass
+class InjectionLog:
+    injected: list[str] = field(default_factory=list)
+    killed: set[int] = field(default_factory=set)
+    frozen: set[int] = field(default_factory=set)
+
+
+class FailureInjector:
+    def __init__(self, launcher, failures, ids, seed: int, coordinator=None, spawn_late=None):
+        self.launcher = launcher
+        self.failures = sorted((f for f in failures if f.kind != "drop"), key=lambda f: f.at_step)
+        self.ids = list(ids)
+        self.rng = random.Random(seed)
+        self.coordinator = coordinator
+        self.spawn_late = spawn_late
+        self.log = InjectionLog()
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def start(self) -> None:
+        if self.failures:
+            self.thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+
+    def _victims(self, count: int) -> list[int]:
+        pool = [i for i in self.ids if i not in self.log.killed and i not in self.log.frozen]
+        return sorted(self.rng.sample(pool, min(count, len(pool))))
+
+    def _run(self) -> None:
+        for f in self.failures:
+            while self.launcher.max_step < f.at_step:
+                if self._stop.wait(0.01):
+                    return
+            procs = self.launcher.swarm.procs
+            if f.kind == "kill":
+                victims = self._victims(f.count)
+                for v in victims:
+                    _signal(procs[v].pid, signal.SIGKILL)
+                self.log.killed.update(victims)
+                self.log.injected.append(f"step {f.at_step}: SIGKILL agents {victims}")
+            elif f.kind == "freeze":
+                victims = self._victims(f.count)
+                for v in victims:
+                    _signal(procs[v].pid, signal.SIGSTOP)
+                self.log.frozen.update(victims)
+                self.log.injected.append(f"step {f.at_step}: SIGSTOP agents {victims} for {f.seconds:g} s")
+                threading.Timer(f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]).start()
+            elif f.kind == "kill_coordinator" and self.coordinator is not None:
+                _signal(self.coordinator.pid, signal.SIGKILL)
+                self.log.injected.append(f"step {f.at_step}: SIGKILL coordinator")
+            elif f.kind == "late_join" and self.spawn_late is not None:
+                new = self.spawn_late(f.count)
+                self.log.injected.append(f"step {f.at_step}: {len(new)} late joiners {new}")
+
+
+def _signal(pid: int, sig) -> None:
+    try:
+        os.kill(pid, sig)
+    except ProcessLookupError:
+        pass
