@@ -100,12 +100,13 @@ class Launcher:
 
     def __init__(self, run: str | None = None, connect: str | None = None, listen: str | None = None,
                  secret: str | None = None, agent_timeout: float = 2.0, quiet: bool = True,
-                 user: str = "", password: str = "", router_auth_file: str = ""):
+                 user: str = "", password: str = "", router_auth_file: str = "", commands: bool = False):
         self.run = run or f"run-{uuid.uuid4().hex[:8]}"
         if not keys.valid_run_name(self.run):
             raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
         self.secret = secret if secret is not None else secrets.token_hex(32)
         self.agent_timeout = agent_timeout
+        self.commands = commands  # agents follow signed gesture commands (they wait for the first one)
         self.quiet = quiet
         self.user, self.password = user, password
         if connect:
@@ -177,7 +178,8 @@ class Launcher:
                 self.swarm.alive.discard(j)
             self.swarm.changed.notify_all()
 
-    def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0) -> subprocess.Popen:
+    def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "",
+                       image: str = "") -> subprocess.Popen:
         """Start the passive MCAP recorder process (fluidswarm/recording/recorder.py) and wait until its
         subscribers are declared (it then shows a liveliness token), so it misses no step."""
         meta = dict(metadata)
@@ -187,6 +189,10 @@ class Launcher:
                "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta)]
         if self.user:
             cmd += ["--user", self.user, "--password", self.password]
+        if target:
+            cmd += ["--target", target]
+        if image:
+            cmd += ["--image", image]
         self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"
@@ -223,7 +229,10 @@ class Launcher:
 
     def spawn(self, spec: AgentSpec) -> subprocess.Popen:
         out = subprocess.DEVNULL if self.quiet else None
-        proc = subprocess.Popen([sys.executable, "-m", "agent", "--spec", spec.to_json()],
+        env = dict(os.environ)
+        if self.commands:  # the run's command key travels in the environment, never on the bus or argv
+            env["FLUIDSWARM_SECRET"] = self.secret
+        proc = subprocess.Popen([sys.executable, "-m", "agent", "--spec", spec.to_json()], env=env,
                                 stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
         self.swarm.procs[spec.id] = proc
         return proc

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import queue
 import random
 import resource
@@ -193,8 +194,9 @@ class Agent:
         x, y = self.state[X], self.state[Y]
         r2 = self.r_expect * self.r_expect
         out = set()
-        for j, (_s, jx, jy) in self.latest.items():
-            if math.isnan(jx) or (jx - x) ** 2 + (jy - y) ** 2 <= r2:
+        recent = self.step - 1  # older sightings are stale: that particle has moved out of our cells
+        for j, (s, jx, jy) in self.latest.items():
+            if math.isnan(jx) or (s >= recent and (jx - x) ** 2 + (jy - y) ** 2 <= r2):
                 out.add(j)
         return out
 
@@ -241,6 +243,13 @@ class Agent:
         if self.controller is not None:
             s.declare_subscriber(keys.command_key(run), self._on_command)
         self._update_subscriptions()
+        if self.controller is not None and not spec.join:
+            # Ready only once the gesture command is known, so every agent applies it from step 0.
+            deadline = time.monotonic() + spec.start_timeout
+            while not self.controller.has_command:
+                if time.monotonic() > deadline:
+                    return EXIT_NO_START
+                self._drain(0.25)
         cx, cy = keys.cell_of(self.state[X], self.state[Y], self.cell)
         # The born token first: the launcher's start barrier waits for alive tokens, so when it fires
         # every born token is already known to the router and the step-0 query sees all of them.
@@ -342,7 +351,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     controller = None
-    if spec.secret:
+    if spec.secret or os.environ.get("FLUIDSWARM_SECRET"):
         from agent.route import CommandFollower
 
         controller = CommandFollower(spec)

@@ -193,6 +193,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--dt", type=float, default=0.01)
     ap.add_argument("--metadata", default="{}", help="JSON object stored as the run's MCAP metadata")
+    ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
+    ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
     ap.add_argument("--user", default="")
     ap.add_argument("--password", default="")
     args = ap.parse_args(argv)
@@ -213,6 +215,14 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     writer = RunWriter(args.out, metadata)
+    if args.target:
+        from fluidswarm.geometry import ImageToDomain
+
+        with np.load(args.target) as t:
+            writer.write_target(0.0, t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))
+    if args.image:
+        with open(args.image, "rb") as f:
+            writer.write_image(0.0, f.read(), frame_id="camera")
     recorder = Recorder(args.run, writer, args.dt)
     session = zenoh.open(client_config([args.connect], args.user, args.password))
     try:

@@ -1,0 +1,5 @@
+import sys
+
+from coordinator.process import main
+
+sys.exit(main())

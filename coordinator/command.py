@@ -1,0 +1,156 @@
+"""The gesture command (wire format v1, docs/command.md): parameters only, signed, strictly validated.
+
+A command holds particle classes (each a share of the swarm and a route of waypoints with the body-force
+parameters of eq. 6.2, and optional stiffness/viscosity switches), the swarm size the shares refer to,
+and nothing per particle. The envelope is JSON: {"v": 1, "body": {...}, "sig": HMAC-SHA256(secret,
+canonical body) in hex}. The secret is made by the launcher per run and handed to the coordinator and
+the agents at start (environment), never sent on the bus.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+VERSION = 1
+MAX_BYTES = 64 * 1024
+MAX_CLASSES = 64
+MAX_ROUTE = 32
+MAX_COORD = 1e6
+
+
+class CommandRejected(ValueError):
+    """reason: 'malformed' | 'version' | 'signature' | 'replay'."""
+
+    def __init__(self, reason: str, detail: str = ""):
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """x, y [m]; r [m] radius with no force; s [m] ramp; alpha [1/s^2] gain (eq. 6.2); beta [N/m] and mu
+    [kg/s] to switch to when the waypoint is reached (None: keep)."""
+
+    x: float
+    y: float
+    r: float
+    s: float
+    alpha: float
+    beta: float | None = None
+    mu: float | None = None
+
+
+@dataclass(frozen=True)
+class ParticleClass:
+    name: str
+    share: float
+    route: tuple[Waypoint, ...]
+
+
+@dataclass(frozen=True)
+class GestureCommand:
+    seq: int  # strictly increasing per run: agents reject older ones (replay)
+    gesture: str  # what the coordinator recognised (for logs)
+    n_agents: int  # swarm size the shares are divided over
+    classes: tuple[ParticleClass, ...]
+    beta: float = 2.0  # stiffness before any switch
+    mu: float = 0.0  # viscosity before any switch
+    extra: dict = field(default_factory=dict)  # free-form annotations (ellipses, controller) for logs only
+
+    def body(self) -> dict:
+        d = asdict(self)
+        d["classes"] = [{"name": c.name, "share": c.share,
+                         "route": [{k: v for k, v in asdict(w).items() if v is not None} for w in c.route]}
+                        for c in self.classes]
+        return d
+
+    def encode(self, secret: bytes) -> bytes:
+        body = _canonical(self.body())
+        sig = hmac.new(secret, body, hashlib.sha256).hexdigest()
+        return b'{"v":1,"body":' + body + b',"sig":"' + sig.encode() + b'"}'
+
+
+def _canonical(obj) -> bytes:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+
+
+def _num(d: dict, key: str, lo: float, hi: float, optional: bool = False):
+    if key not in d:
+        if optional:
+            return None
+        raise CommandRejected("malformed", f"missing {key}")
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+        raise CommandRejected("malformed", f"{key}={v!r} not in [{lo}, {hi}]")
+    return float(v)
+
+
+def _only(d, allowed: set, where: str) -> None:
+    if not isinstance(d, dict):
+        raise CommandRejected("malformed", f"{where} is not an object")
+    extra = set(d) - allowed
+    if extra:
+        raise CommandRejected("malformed", f"{where}: unknown field {sorted(extra)[0]!r}")
+
+
+def decode(data: bytes, secret: bytes) -> GestureCommand:
+    """Verify and parse an envelope from the network; raise CommandRejected with the reason."""
+    if not isinstance(data, (bytes, bytearray)) or len(data) > MAX_BYTES:
+        raise CommandRejected("malformed", "too large or not bytes")
+    try:
+        env = json.loads(data)
+    except (ValueError, UnicodeDecodeError):
+        raise CommandRejected("malformed", "not JSON") from None
+    _only(env, {"v", "body", "sig"}, "envelope")
+    if env.get("v") != VERSION:
+        raise CommandRejected("version", f"v={env.get('v')!r}")
+    body, sig = env.get("body"), env.get("sig")
+    if not isinstance(body, dict) or not isinstance(sig, str):
+        raise CommandRejected("malformed", "body/sig missing")
+    expected = hmac.new(secret, _canonical(body), hashlib.sha256).hexdigest()
+    if not hmac.compare_digest(expected, sig):
+        raise CommandRejected("signature")
+    return parse_body(body)
+
+
+def parse_body(body: dict) -> GestureCommand:
+    _only(body, {"seq", "gesture", "n_agents", "classes", "beta", "mu", "extra"}, "body")
+    seq = body.get("seq")
+    if isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq < 2**62:
+        raise CommandRejected("malformed", "seq")
+    n = body.get("n_agents")
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 100000:
+        raise CommandRejected("malformed", "n_agents")
+    gesture = body.get("gesture", "")
+    if not isinstance(gesture, str) or len(gesture) > 64:
+        raise CommandRejected("malformed", "gesture")
+    raw_classes = body.get("classes")
+    if not isinstance(raw_classes, list) or not 1 <= len(raw_classes) <= MAX_CLASSES:
+        raise CommandRejected("malformed", "classes")
+    classes = []
+    for c in raw_classes:
+        _only(c, {"name", "share", "route"}, "class")
+        name = c.get("name", "")
+        if not isinstance(name, str) or len(name) > 64:
+            raise CommandRejected("malformed", "class name")
+        share = _num(c, "share", 0.0, 1e6)
+        route = c.get("route")
+        if not isinstance(route, list) or not 1 <= len(route) <= MAX_ROUTE:
+            raise CommandRejected("malformed", "route")
+        wps = []
+        for w in route:
+            _only(w, {"x", "y", "r", "s", "alpha", "beta", "mu"}, "waypoint")
+            wps.append(Waypoint(_num(w, "x", -MAX_COORD, MAX_COORD), _num(w, "y", -MAX_COORD, MAX_COORD),
+                                _num(w, "r", 0.0, MAX_COORD), _num(w, "s", 0.0, MAX_COORD), _num(w, "alpha", 0.0, 1e4),
+                                _num(w, "beta", 0.0, 1e4, optional=True), _num(w, "mu", 0.0, 1e4, optional=True)))
+        classes.append(ParticleClass(name, share, tuple(wps)))
+    if sum(c.share for c in classes) <= 0:
+        raise CommandRejected("malformed", "shares sum to 0")
+    extra = body.get("extra", {})
+    if not isinstance(extra, dict):
+        raise CommandRejected("malformed", "extra")
+    return GestureCommand(seq, gesture, n, tuple(classes), _num(body, "beta", 0.0, 1e4), _num(body, "mu", 0.0, 1e4), extra)

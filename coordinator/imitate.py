@@ -1,0 +1,86 @@
+"""`fluidswarm imitate`: perception -> coordinator process -> N agent processes -> formation, MCAP, fidelity."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from agent.launcher import Launcher, _die_with_parent, run_swarm
+from coordinator.imitation_setup import DEFAULT_STEPS, prepare
+from fluidswarm.plotting import plot_formation
+from fluidswarm.recording.fidelity import fidelity, format_fidelity
+
+
+@dataclass
+class ImitationResult:
+    mcap: Path
+    png: Path
+    fidelity: object
+    finals: dict
+    steps_per_second: float
+    command_json: str
+    launcher_events: list = field(default_factory=list)
+    coordinator_code: int | None = None
+
+
+def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
+            controller: str = "region", failures=(), seed: int = 0, name: str = "imitate",
+            on_started=None, progress=None, per_agent=None, launcher_hook=None) -> ImitationResult:
+    from perception.io import load_frames
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    frames = load_frames(input_path)
+    im = prepare(frames[0], agents)
+    mcap = out / f"{name}.mcap"
+    with tempfile.TemporaryDirectory() as tmp:
+        target = Path(tmp) / "target.npz"
+        t = im.transform
+        np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
+        image = Path(tmp) / "input.jpg"
+        cv2.imwrite(str(image), frames[0])
+        meta = {"scenario": name, "input": str(input_path), "controller": controller, "agents": agents, "steps": steps,
+                "seed": seed, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
+                "transform": t.as_dict(), "failures": [getattr(f, "__dict__", str(f)) for f in failures]}
+        with Launcher(agent_timeout=2.0, commands=True) as launcher:
+            launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image))
+            env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
+            coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
+                                      "--input", str(input_path), "--agents", str(agents), "--controller", controller],
+                                     env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                     preexec_fn=_die_with_parent)
+            launcher.coordinator = coord
+            try:
+                launcher.track_progress()
+                if launcher_hook is not None:
+                    launcher_hook(launcher, im)
+                res = run_swarm(im.setup, steps, launcher=launcher, on_started=on_started, progress=progress,
+                                per_agent=per_agent)
+            finally:
+                if coord.poll() is None:
+                    coord.terminate()
+                try:
+                    coord.wait(10)
+                except subprocess.TimeoutExpired:
+                    coord.kill()
+    done = {i: r for i, r in res.finals.items() if r.get("status") == "done"}
+    ids = sorted(done)
+    pos = np.array([done[i]["state"][:2] for i in ids]) if ids else np.empty((0, 2))
+    classes = np.array([done[i].get("particle_class", 0) for i in ids], dtype=int)
+    fid = fidelity(im.mask, im.transform, pos)
+    rows, cols = im.mask.shape
+    extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
+    wps = np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
+    png = plot_formation(out / f"{name}_formation.png", pos, classes, None,
+                         f"{Path(input_path).name}: {len(ids)} agents, iou {fid.iou:.2f}",
+                         background=im.mask.astype(float), extent=extent, waypoints=wps)
+    return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
+                           res.events, coord.returncode)

@@ -1,0 +1,95 @@
+"""The coordinator process: observe, recognise, broadcast the signed gesture command. Nothing else.
+
+It declares one publisher (the command key) and one liveliness token, and never subscribes to agent
+states. It republishes the current command every `period` s so an agent that starts late has it within
+one period, and publishes a new command (next sequence number) when the observed gesture changes
+between frames (thesis ch. 5, gesture sequences).
+
+`python -m coordinator --connect tcp/HOST:PORT --run NAME --input IMAGE|FOLDER|VIDEO --agents N`
+with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+
+import zenoh
+
+from agent import keys
+from agent.session import client_config
+
+
+def commands_for_frames(frames, n_agents: int):
+    """One command per distinct gesture along the frames (consecutive equal gestures are merged)."""
+    from coordinator.imitation_setup import prepare
+
+    out = []
+    last_sig = None
+    for frame in frames:
+        im = prepare(frame, n_agents, seq=len(out) + 1)
+        sig = tuple(round(c.share, -1) for c in im.command.classes), len(im.command.classes)
+        if sig != last_sig:
+            out.append(im.command)
+            last_sig = sig
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="fluidswarm coordinator", description=__doc__.splitlines()[0])
+    ap.add_argument("--connect", required=True)
+    ap.add_argument("--run", required=True)
+    ap.add_argument("--input", required=True, help="image, folder of frames, or video")
+    ap.add_argument("--agents", type=int, required=True)
+    ap.add_argument("--controller", default="region", choices=["region"])
+    ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
+    ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
+    ap.add_argument("--user", default="")
+    ap.add_argument("--password", default="")
+    args = ap.parse_args(argv)
+    secret_hex = os.environ.get("FLUIDSWARM_SECRET", "")
+    try:
+        secret = bytes.fromhex(secret_hex)
+    except ValueError:
+        secret = b""
+    if not secret:
+        print("fluidswarm coordinator: error: FLUIDSWARM_SECRET (hex) must hold the run's command key", file=sys.stderr)
+        return 2
+    if not keys.valid_run_name(args.run) or args.agents < 1 or args.period <= 0:
+        print("fluidswarm coordinator: error: bad --run, --agents or --period", file=sys.stderr)
+        return 2
+    from perception.io import InputError, load_frames
+    from perception.segmentation import SegmentationError
+
+    try:
+        commands = commands_for_frames(load_frames(args.input), args.agents)
+    except (InputError, SegmentationError) as exc:
+        print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
+        return 1
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: stop.set())
+    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    try:
+        pub = session.declare_publisher(keys.command_key(args.run))
+        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
+        payloads = [c.encode(secret) for c in commands]
+        ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
+        tick = 0
+        while not stop.is_set():
+            current = payloads[min(tick // ticks_per_frame, len(payloads) - 1)]
+            pub.put(current)
+            tick += 1
+            stop.wait(args.period)
+        token.undeclare()
+        pub.undeclare()
+    finally:
+        session.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
