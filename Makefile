@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/fluidswarm simulate --out out/demo.png
+	$(BIN)/fluidswarm demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q tests

@@ -14,7 +14,7 @@ from coordinator.region import centre_px, domain_for, fit_transform, region_comm
 from fluidswarm.geometry import ImageToDomain
 from perception.segmentation import hand_mask
 
-DEFAULT_STEPS = 450
+DEFAULT_STEPS = 700
 
 
 def imitation_params(domain) -> SPHParams:
