@@ -30,7 +30,8 @@ from agent.spec import AgentSpec
 from agent.sph.particle import Control
 from agent.wire import STATE_SIZE
 
-_STEP = __import__("struct").Struct("<I")
+_ID_STEP = __import__("struct").Struct("<II")
+_CLOCK = __import__("struct").Struct("<Q")
 
 _PR_SET_PDEATHSIG = 1
 
@@ -128,18 +129,48 @@ class Launcher:
         self.max_step = -1
 
     def track_progress(self) -> None:
-        """Watch every state message (a passive observer, like the recorder) to follow the run's step."""
+        """Watch every state message (a passive observer, like the recorder) to follow the run's step,
+        and publish the pacing clock (idempotent)."""
+        if getattr(self, "_tracking", False):
+            return
+        self._tracking = True
+        self.agent_steps: dict[int, tuple[int, float]] = {}
         self._subs.append(self.session.declare_subscriber(keys.state_all_expr(self.run), self._on_state))
+        self._clock_stop = threading.Event()
+        threading.Thread(target=self._clock, daemon=True).start()
 
     def _on_state(self, sample) -> None:
         data = sample.payload.to_bytes()
         if len(data) != STATE_SIZE:
             return
-        step = _STEP.unpack_from(data, 8)[0]
+        agent_id, step = _ID_STEP.unpack_from(data, 4)
+        now = time.monotonic()
+        last = self.agent_steps.get(agent_id)
+        if (last is None or step > last[0]) and step <= self.max_step + 1000:
+            self.agent_steps[agent_id] = (step, now)
         if step not in self.step_times and step <= self.max_step + 1000:
-            self.step_times[step] = time.monotonic()
+            self.step_times[step] = now
             if step > self.max_step:
                 self.max_step = step
+
+    def _clock(self) -> None:
+        """Publish the slowest live agent's step on ctl/clock every 0.1 s.
+
+        Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
+        swarm and meet it again at a different step; with the clock they stay within CLOCK_LEAD steps.
+        Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
+        """
+        key = keys.ctl_key(self.run, "clock")
+        while not self._clock_stop.wait(0.1):
+            now = time.monotonic()
+            with self.swarm.changed:
+                alive = set(self.swarm.alive)
+            steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
+            if steps:
+                try:
+                    self.session.put(key, _CLOCK.pack(min(steps)))
+                except Exception:  # the session is closing
+                    return
 
     def wait_step(self, step: int, timeout: float) -> None:
         deadline = time.monotonic() + timeout
@@ -232,8 +263,11 @@ class Launcher:
         env = dict(os.environ)
         if self.commands:  # the run's command key travels in the environment, never on the bus or argv
             env["FLUIDSWARM_SECRET"] = self.secret
+        # PR_SET_PDEATHSIG fires when the *thread* that forked exits, so only children forked by the main
+        # thread get it; late joiners started from a helper thread rely on close() alone.
+        death = _die_with_parent if threading.current_thread() is threading.main_thread() else None
         proc = subprocess.Popen([sys.executable, "-m", "agent", "--spec", spec.to_json()], env=env,
-                                stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+                                stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=death)
         self.swarm.procs[spec.id] = proc
         return proc
 
@@ -278,6 +312,8 @@ class Launcher:
         if self.closed:
             return {i: p.returncode for i, p in self.swarm.procs.items()}
         self.closed = True
+        if getattr(self, "_clock_stop", None) is not None:
+            self._clock_stop.set()
         procs = self.swarm.procs
         if any(p.poll() is None for p in procs.values()):
             try:
@@ -343,6 +379,7 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
             k = index[i]
             extra = {**spec_extra, **(per_agent or {}).get(i, {})}
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
+        launcher.track_progress()
         everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
         launcher.wait_alive(everyone, startup_timeout or 30.0 + 0.3 * len(everyone))
         startup = time.monotonic() - t0

@@ -33,7 +33,12 @@ MAX_AHEAD = 1000
 # Distinct senders within the support, BEHIND_STEPS or more steps ahead, mean the swarm has dropped
 # this agent (it was frozen): a neighbour that still waited for us could be at most one step ahead.
 BEHIND_SENDERS = 2
-BEHIND_STEPS = 3
+BEHIND_STEPS = 5
+# A neighbour at most this many steps behind is waited for (a slower group catching up); one further
+# behind has stalled and is not (it catches up from the queued states or leaves, see FellBehind).
+LAG_WAIT_STEPS = 3
+# Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
+CLOCK_LEAD = 3
 EXIT_OK, EXIT_FELL_BEHIND, EXIT_STOPPED, EXIT_NO_START = 0, 3, 4, 5
 
 
@@ -75,6 +80,9 @@ class Agent:
         self.latest: dict[int, tuple[int, float, float]] = {}
         self.dead: set[int] = set()
         self.ahead_senders: set[int] = set()
+        self.heard_at: dict[int, float] = {}
+        self.clock: int | None = None  # the slowest live agent's step, from the launcher (ctl/clock)
+        self.last_step_done = time.monotonic()
         self.step = 0
         self.started = False
         self.stop_requested = False
@@ -94,7 +102,7 @@ class Agent:
             self.inbox.put((1, str(sample.key_expr)))
 
     def _on_ctl(self, sample) -> None:
-        self.inbox.put((2, str(sample.key_expr)))
+        self.inbox.put((2, (str(sample.key_expr), sample.payload.to_bytes())))
 
     def _on_command(self, sample) -> None:
         self.inbox.put((3, sample.payload.to_bytes()))
@@ -111,14 +119,20 @@ class Agent:
                 self.latest.pop(j, None)
                 self.counters["deaths_seen"] += 1
         elif kind == 2:
-            if data.endswith("/start"):
+            key, payload = data
+            if key.endswith("/start"):
                 self.started = True
-            elif data.endswith("/stop"):
+            elif key.endswith("/stop"):
                 raise Stop()
+            elif key.endswith("/clock") and len(payload) == 8:
+                self.clock = int.from_bytes(payload, "little")
         elif kind == 3 and self.controller is not None:
+            first = not self.controller.has_command
             reason = self.controller.offer(data)
             if reason:
                 self.counters["rejected"]["command_" + reason] += 1
+            elif first and self.controller.has_command:
+                self._event("command_received", seconds_since_session_open=time.time() - self.session_opened_at)
 
     def _handle_state(self, data: bytes) -> None:
         decoded, reason = decode_state(data)
@@ -135,6 +149,7 @@ class Agent:
         last = self.latest.get(j)
         if last is None or step >= last[0]:
             self.latest[j] = (step, values[X], values[Y])
+            self.heard_at[j] = time.monotonic()
         if step < self.step:
             self.counters["stale"] += 1
             return
@@ -142,7 +157,10 @@ class Agent:
         if self.started and step >= self.step + BEHIND_STEPS:
             # A particle within the support that is this far ahead is no longer waiting for us.
             dx, dy = values[X] - self.state[X], values[Y] - self.state[Y]
-            if dx * dx + dy * dy <= self.params.support ** 2:
+            # Only an agent that itself stalled (SIGSTOP) concludes it was dropped; a merely slower group
+            # is waited for by the faster one (see _expected).
+            stalled = time.monotonic() - self.last_step_done > self.spec.timeout
+            if stalled and dx * dx + dy * dy <= self.params.support ** 2:
                 self.ahead_senders.add(j)
                 if len(self.ahead_senders) >= BEHIND_SENDERS:
                     raise FellBehind()
@@ -194,10 +212,16 @@ class Agent:
         x, y = self.state[X], self.state[Y]
         r2 = self.r_expect * self.r_expect
         out = set()
-        recent = self.step - 1  # older sightings are stale: that particle has moved out of our cells
+        recent = self.step - 1
+        now = time.monotonic()
         for j, (s, jx, jy) in self.latest.items():
-            if math.isnan(jx) or (s >= recent and (jx - x) ** 2 + (jy - y) ** 2 <= r2):
+            if math.isnan(jx):
                 out.add(j)
+            elif (jx - x) ** 2 + (jy - y) ** 2 <= r2:
+                # Heard at the previous step: a neighbour in step. Heard lately at an older step: a
+                # lagging group we must let catch up. Otherwise the sighting is stale (it moved away).
+                if s >= recent or (s >= recent - LAG_WAIT_STEPS and now - self.heard_at.get(j, 0.0) < self.spec.timeout):
+                    out.add(j)
         return out
 
     def _publish(self) -> None:
@@ -228,6 +252,7 @@ class Agent:
     def run(self) -> int:
         spec = self.spec
         self.session = zenoh.open(client_config(spec.connect, spec.user, spec.password))
+        self.session_opened_at = time.time()
         try:
             return self._run()
         finally:
@@ -267,7 +292,10 @@ class Agent:
                 self._discover_initial_neighbours()
             self._event("started")
             self.step_started_at = time.time()
+            self.last_step_done = time.monotonic()
             while self.step < spec.steps:
+                while self.clock is not None and self.step > self.clock + CLOCK_LEAD:
+                    self._drain(0.05)  # an isolated particle must not run ahead of the swarm
                 self._publish()
                 self._wait_for(self._expected() - {spec.id})
                 self._drain(0)
@@ -281,6 +309,7 @@ class Agent:
                 self.counters["neighbours"] += len(interacting(self.state, neighbours, self.params)) if len(neighbours) else 0
                 self.state = step_particle(self.state, neighbours, control, self.params)
                 self.step += 1
+                self.last_step_done = time.monotonic()
                 self._update_subscriptions()
             self.step_ended_at = time.time()
             self._publish()  # the final state, so neighbours still waiting for it are not held up
@@ -321,6 +350,7 @@ class Agent:
             "msgs_received": c["msgs_received"], "neighbours": c["neighbours"], "rejected": dict(c["rejected"]),
             "timeouts": c["timeouts"], "deaths_seen": c["deaths_seen"], "stale": c["stale"],
             "dropped_out": c["dropped_out"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
+            "session_opened_at": getattr(self, "session_opened_at", None),
             "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
             "cpu_seconds": time.process_time(),
         }

@@ -50,7 +50,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
         meta = {"scenario": name, "input": str(input_path), "controller": controller, "agents": agents, "steps": steps,
                 "seed": seed, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
                 "transform": t.as_dict(), "failures": [getattr(f, "__dict__", str(f)) for f in failures]}
-        with Launcher(agent_timeout=2.0, commands=True) as launcher:
+        with Launcher(agent_timeout=5.0, commands=True) as launcher:
             launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image))
             env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
             coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,

@@ -69,11 +69,14 @@ def region_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, se
     far = np.hypot(cents_m[:, 0] - centre[0], cents_m[:, 1] - centre[1])
     order = np.argsort(far, kind="stable")  # classes from the centre outwards
     reach = float(np.percentile(far, 60)) if len(far) > 1 else 0.0
+    # The common first waypoint (palm/torso centre) is reached by every particle of the compact start
+    # blob at once: a smaller radius makes a crowd orbit the centre, unable to get within it.
+    start_radius = max(1.5, math.sqrt(n_agents / math.pi) + 0.5)
     classes = []
     for rank, j in enumerate(order):
         area_m2 = counts[j] * transform.scale ** 2
         eq_radius = math.sqrt(area_m2 / math.pi)
-        first = Waypoint(float(centre[0]), float(centre[1]), r=1.5, s=2.0, alpha=alpha)
+        first = Waypoint(float(centre[0]), float(centre[1]), r=start_radius, s=2.0, alpha=alpha)
         last = Waypoint(float(cents_m[j, 0]), float(cents_m[j, 1]), r=0.5 * eq_radius, s=2.0, alpha=alpha,
                         beta=beta_far if (beta_far is not None and far[j] > reach) else None)
         classes.append(ParticleClass(f"region{rank}", float(counts[j]), (first, last)))

@@ -99,8 +99,12 @@ def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
     longest_stall = max(np.diff(times))
     print(f"longest stall between steps: {longest_stall:.2f} s; frozen agent exit code {code}")
     assert longest_stall < timeout + 1.5
-    # Documented behaviour: a resumed agent finds the swarm ahead of it and exits cleanly (code 3).
-    assert code == 3 and res.finals[frozen]["status"] == "fell_behind"
+    # Documented behaviour (docs/protocol.md): the resumed agent either catches up by replaying the
+    # neighbour states Zenoh queued for it (it then finishes every step), or, if they were not
+    # delivered, finds the swarm ahead and exits cleanly with code 3.
+    report = res.finals[frozen]
+    assert (code == 0 and report["status"] == "done" and report["steps"] == steps) or \
+        (code == 3 and report["status"] == "fell_behind")
 
 
 def test_rogue_state_messages_are_dropped_counted_and_change_nothing():

@@ -28,7 +28,7 @@ from agent.sph.particle import P, RHO, VX, VY, X, Y
 from agent.wire import decode_state
 from fluidswarm.recording.writer import RunWriter
 
-LAG_STEPS = 40  # a step this far behind the newest one is written even if some agent never reported
+RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
 QUIET_SECONDS = 3.0  # ... or once nothing new came for this long
 
 
@@ -42,6 +42,7 @@ class Recorder:
         self.alive: set[int] = set()
         self.stopped: set[int] = set()  # alive but not reporting (frozen): waiting for them is pointless
         self.last_step: dict[int, int] = {}
+        self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.next_step = 0
         self.newest = -1
@@ -75,6 +76,8 @@ class Recorder:
             j, step, cls, values = decoded
             if step < self.next_step or step > self.newest + 100000:
                 return  # already written (a late straggler) or absurd
+            if step not in self.pending:
+                self.first_seen[step] = time.monotonic()
             self.pending.setdefault(step, {})[j] = (cls, values)
             self.newest = max(self.newest, step)
             self.last_step[j] = max(self.last_step.get(j, -1), step)
@@ -131,10 +134,13 @@ class Recorder:
     def _ready(self, step: int) -> bool:
         have = self.pending.get(step, {})
         waiting = self._expected_at(step) - set(have)
-        return not waiting or self.newest - step >= LAG_STEPS or time.monotonic() - self.last_message > QUIET_SECONDS
+        now = time.monotonic()
+        return (not waiting or now - self.first_seen.get(step, now) >= RELEASE_SECONDS
+                or now - self.last_message > QUIET_SECONDS)
 
     def _write_step(self, step: int) -> None:
         have = self.pending.pop(step, {})
+        self.first_seen.pop(step, None)
         for j in self._expected_at(step) - set(have):
             if self.last_step.get(j, -1) < step:  # it stopped reporting: frozen or cut off
                 self.stopped.add(j)

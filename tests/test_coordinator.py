@@ -1,0 +1,215 @@
+"""Gesture commands, the coordinator process and imitation on real photographs with real processes."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import zenoh
+
+from agent import keys
+from agent.launcher import Launcher, run_swarm
+from agent.route import class_counts, class_of, followers_for
+from agent.session import client_config
+from agent.sph.particle import X, Y
+from agent.sph.reference import PerParticleDriver
+from coordinator.command import CommandRejected, decode
+from coordinator.imitation_setup import prepare
+from fluidswarm.recording.reader import load_run
+
+SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "datasets" / "sign-language-digits"
+REPO = Path(__file__).resolve().parent.parent
+V_SIGN = REPO / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
+PER_PARTICLE = {"id", "ids", "agent", "agents", "particle", "particles", "position", "positions", "velocity",
+                "velocities", "assignment", "assignments"}
+
+
+def shared_image(cls: int) -> Path:
+    if not SHARED.is_dir():
+        pytest.fail(f"this test needs ../shared/datasets/sign-language-digits (missing: {SHARED})")
+    return sorted((SHARED / str(cls)).iterdir())[-1]
+
+
+def keys_of(obj) -> set:
+    if isinstance(obj, dict):
+        return set(obj) | set().union(*(keys_of(v) for v in obj.values())) if obj else set()
+    if isinstance(obj, list):
+        return set().union(*(keys_of(v) for v in obj)) if obj else set()
+    return set()
+
+
+def test_class_split_is_deterministic_and_complete():
+    shares = [3.0, 1.0, 1.0]
+    assert class_counts(10, shares) == [6, 2, 2]
+    assert [class_of(i, 10, shares) for i in range(10)] == [0] * 6 + [1] * 2 + [2] * 2
+
+
+def test_command_signature_and_validation():
+    im = prepare(cv2.imread(str(V_SIGN)), 30)
+    secret = os.urandom(32)
+    payload = im.command.encode(secret)
+    assert decode(payload, secret) == im.command
+    env = json.loads(payload)
+    assert not (keys_of(env["body"]) - {"extra"}) & PER_PARTICLE
+    with pytest.raises(CommandRejected) as e:
+        decode(payload, os.urandom(32))
+    assert e.value.reason == "signature"
+    env["body"]["classes"][0]["route"][0]["x"] = float("1e300")
+    for bad in (b"{", json.dumps({"v": 2, "body": {}, "sig": ""}).encode(), json.dumps(env).encode(), b"x" * 70000):
+        with pytest.raises(CommandRejected):
+            decode(bad, secret)
+
+
+def test_security_rogue_commands_change_nothing_and_are_counted():
+    """Lockstep run with a signed command; a rogue sends 1000 forged, replayed and malformed commands."""
+    im = prepare(cv2.imread(str(V_SIGN)), 16)
+    steps = 200
+    counts = {"sent": 0}
+    with Launcher(commands=True, agent_timeout=15.0) as la:
+        la.track_progress()
+        secret = bytes.fromhex(la.secret)
+        good = im.command.encode(secret)
+        older = type(im.command)(**{**im.command.__dict__, "seq": 0}).encode(secret)  # a captured older command
+        forged = type(im.command)(**{**im.command.__dict__, "seq": 99, "beta": 50.0}).encode(os.urandom(32))
+        malformed = [b"{", b"[]", json.dumps({"v": 1, "body": {"seq": 5}, "sig": "00"}).encode(), b"\xff" * 100]
+        stop = threading.Event()
+
+        def coordinator_and_rogue():
+            s = zenoh.open(client_config([la.endpoint]))
+            try:
+                while not stop.is_set():
+                    s.put(keys.command_key(la.run), good)  # the real coordinator keeps republishing
+                    if counts["sent"] < 1000 or la.max_step < 20:
+                        for payload in (forged, older, *malformed) * 4:
+                            s.put(keys.command_key(la.run), payload)
+                            counts["sent"] += 1
+                    time.sleep(0.01)
+            finally:
+                s.close()
+
+        t = threading.Thread(target=coordinator_and_rogue, daemon=True)
+        t.start()
+        try:
+            res = run_swarm(im.setup, steps, launcher=la)
+        finally:
+            stop.set()
+            t.join(10)
+    ref = PerParticleDriver(im.setup.ids, im.setup.states, followers_for(im.command, im.setup.ids), im.setup.params).run(steps)
+    got = np.array([res.finals[i]["state"] for i in im.setup.ids])
+    rejected = {}
+    for r in res.finals.values():
+        for k, v in r["rejected"].items():
+            rejected[k] = rejected.get(k, 0) + v
+    print(f"rogue sent {counts['sent']}; rejected {rejected}")
+    assert counts["sent"] >= 1000
+    assert rejected.get("command_signature", 0) > 0 and rejected.get("command_replay", 0) > 0
+    assert rejected.get("command_malformed", 0) > 0
+    assert np.abs(got[:, [X, Y]] - ref[:, [X, Y]]).max() <= 1e-9
+    assert np.abs(got[:, [X, Y]] - im.setup.states[:, [X, Y]]).max() > 1.0  # the command moved them
+
+
+def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_path):
+    """The coordinator's commands are parameters only, and a state publisher finds no subscriber in it."""
+    with Launcher(commands=True) as la:
+        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret)
+        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
+                                  "--input", str(V_SIGN), "--agents", "30"], env=env)
+        got = []
+        sub = la.session.declare_subscriber(keys.command_key(la.run), lambda s: got.append(s.payload.to_bytes()))
+        try:
+            deadline = time.monotonic() + 30
+            while len(got) < 3 and time.monotonic() < deadline:
+                time.sleep(0.1)
+            probe = zenoh.open(client_config([la.endpoint]))
+            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 1))
+            time.sleep(1.0)
+            matching = pub.matching_status.matching
+            probe.close()
+        finally:
+            coord.terminate()
+            coord.wait(10)
+            sub.undeclare()
+    assert len(got) >= 3
+    for payload in got:
+        body = json.loads(payload)["body"]
+        assert not (keys_of(body) - {"extra"}) & PER_PARTICLE
+        assert len(body["classes"]) >= 4
+    assert matching is False
+
+
+def branches(positions: np.ndarray, split_y: float) -> tuple[int, float]:
+    """Groups of particles above split_y along x (gaps wider than 1.5 m separate groups): (count, widest gap)."""
+    xs = np.sort(positions[positions[:, 1] > split_y, 0])
+    if len(xs) < 2:
+        return len(xs), 0.0
+    gaps = np.diff(xs)
+    return 1 + int(np.sum(gaps > 1.5)), float(gaps.max())
+
+
+def test_imitate_v_sign_two_branches_and_one_finger_one_branch(tmp_path):
+    """fluidswarm imitate on real photographs: class 2 (V) -> two branches; class 1 -> one elongated branch."""
+    out = {}
+    for cls in (2, 1):
+        img = shared_image(cls)
+        r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(img), "--agents", "40", "--steps", "500",
+                            "--out", str(tmp_path / str(cls))], capture_output=True, text=True, timeout=400)
+        assert r.returncode == 0, r.stderr[-2000:]
+        figures = dict(line.split("=", 1) for line in r.stdout.split() if "=" in line)
+        run = load_run(figures["mcap"], images=False)
+        im = prepare(cv2.imread(str(img)), 40)
+        out[cls] = (run.frames[-1].positions, im, float(figures["fidelity_iou"]))
+    pos2, im2, iou2 = out[2]
+    # Where the fingers separate: the V's top third in the image, mapped to the domain.
+    rows = np.nonzero(im2.mask.any(axis=1))[0]
+    top_y = im2.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1]
+    n2, gap2 = branches(pos2, top_y)
+    pos1, im1, iou1 = out[1]
+    spread = np.ptp(pos1, axis=0)
+    print(f"V: {n2} branches, widest gap {gap2:.2f} m, iou {iou2:.2f}; one finger: extent {spread}, iou {iou1:.2f}")
+    assert n2 == 2 and gap2 > 1.5
+    assert spread[1] > 1.8 * spread[0]  # one elongated branch (the finger and hand are upright)
+    assert iou2 >= 0.45 and iou1 >= 0.45
+
+
+def test_late_joiner_gets_the_command_within_one_second():
+    im = prepare(cv2.imread(str(V_SIGN)), 12)
+    with Launcher(commands=True) as la:
+        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret)
+        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
+                                  "--input", str(V_SIGN), "--agents", "12"], env=env)
+        la.coordinator = coord
+        la.track_progress()
+
+        def late(l):
+            def go():
+                l.wait_step(40, 60)
+                state = im.setup.states[0].copy()
+                home = im.command.classes[0].route[-1]  # where class 0 gathers: particles are there
+                state[X], state[Y] = home.x, home.y
+                spec = l.spec_for(100, state, im.setup.controls[0], im.setup.params, 150, join=True)
+                l.spawn(spec)
+            threading.Thread(target=go, daemon=True).start()
+
+        try:
+            run_swarm(im.setup, 250, launcher=la, on_started=late)
+            deadline = time.monotonic() + 30
+            got = []
+            while not got and time.monotonic() < deadline:
+                with la.swarm.changed:
+                    got = [e for e in la.swarm.events if e.get("id") == 100 and e.get("event") == "command_received"]
+                time.sleep(0.2)
+        finally:
+            coord.terminate()
+            coord.wait(10)
+    assert got, "the late joiner never reported receiving the command"
+    latency = got[0]["seconds_since_session_open"]
+    print(f"late joiner: command {latency * 1000:.0f} ms after its session opened")
+    assert 0 <= latency <= 1.0
