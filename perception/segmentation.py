@@ -178,6 +178,7 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD) 
     anywhere = np.mean(np.stack(moving), axis=0) > 0.05
     stable = static_body(bg, near=anywhere)
     head = torso = None
+    r_hips = bg.shape[0]
     if stable.any():
         rows = np.flatnonzero(stable.any(axis=1))
         top, height = rows[0], rows[-1] - rows[0] + 1
@@ -189,8 +190,9 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD) 
         torso = torso if torso.any() else None
     out = []
     cx = int(round(np.nonzero(stable)[1].mean())) if stable.any() else bg.shape[1] // 2
+    arm_zone = np.arange(bg.shape[0])[:, None] < r_hips  # arms are above the hips (not the shirt's edges)
     for mv in moving:
-        left, right = _arms(mv & ~stable, cx)
+        left, right = _arms(mv & ~stable & arm_zone, cx)
         arms = [a for a in (left, right) if a is not None]
         sil = stable.copy()
         for a in arms:

@@ -1,0 +1,224 @@
+"""Skeleton of a hand silhouette and the thesis' 6-entry feature vector (thesis §3.2).
+
+    f_v = [line edge, U-shape fit, V-shape fit, two curves fit, one curve fit, distance between branches]
+
+Templates (thesis §3.2): a fat line -> [1,0,0,0,0,0]; a U with aperture a -> [0,1,0,0,0,a]; a V with
+aperture b -> [0,0,1,0,0,b]; pinching (two curves) -> [0,0,0,1,1,ap]; a line and a curve -> [1,0,0,0,1,ap].
+
+How the entries are decided here (the thesis gives the template, not the rule):
+1. Skeleton: Zhang-Suen thinning of the silhouette (the thesis finds "the equidistant pixels from the
+   boundaries"), spurs shorter than SPUR pixels pruned.
+2. The branches that matter: for a photograph the forearm is removed first (the part of the silhouette
+   beyond the palm on the wrist side, see `perception.ellipses.hand_regions`). The skeleton's main path is
+   the longest path between two end points (the two outermost branches).
+3. The path is split at its apex (the point farthest from the chord between its ends). Each half, less
+   the APEX_TRIM share next to the apex (the rounded joint), is a line if a straight line fits it within
+   LINE_TOL of its length, else a curve.
+   - one path, no apex (chord deviation < LINE_TOL): line edge.
+   - two straight arms: angle between them < U_ANGLE degrees -> U (nearly parallel fingers joined at the
+     base), else V.
+   - two curved arms -> two curves fit and one curve fit (pinch); one straight, one curved -> line edge
+     and one curve fit.
+4. Distance between branches: distance between the two end points (the aperture), divided by the
+   silhouette's longer side, so the entry is in 0..1 whatever the picture's size. 0 for a line.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import cv2
+import numpy as np
+
+SPUR = 0.12  # prune skeleton spurs shorter than this share of the silhouette's longer side
+LINE_TOL = 0.06  # a branch is straight if no point is farther than this share of its length from a line
+U_ANGLE = 22.0  # degrees between the two arms' directions below which the shape is a U, not a V
+NAMES = ("line_edge", "u_shape", "v_shape", "two_curves", "one_curve", "branch_distance")
+
+
+def thin(mask: np.ndarray) -> np.ndarray:
+    """Zhang-Suen thinning (1984) of a boolean mask -> one-pixel-wide skeleton (boolean)."""
+    img = np.pad(np.asarray(mask, bool).astype(np.uint8), 1)
+    while True:
+        changed = False
+        for step in (0, 1):
+            p = img
+            p2, p3, p4 = p[:-2, 1:-1], p[:-2, 2:], p[1:-1, 2:]
+            p5, p6, p7 = p[2:, 2:], p[2:, 1:-1], p[2:, :-2]
+            p8, p9 = p[1:-1, :-2], p[:-2, :-2]
+            nb = [p2, p3, p4, p5, p6, p7, p8, p9]
+            b = sum(n.astype(np.int32) for n in nb)
+            a = sum(((nb[i] == 0) & (nb[(i + 1) % 8] == 1)).astype(np.int32) for i in range(8))
+            if step == 0:
+                c1, c2 = p2 * p4 * p6, p4 * p6 * p8
+            else:
+                c1, c2 = p2 * p4 * p8, p2 * p6 * p8
+            remove = (p[1:-1, 1:-1] == 1) & (b >= 2) & (b <= 6) & (a == 1) & (c1 == 0) & (c2 == 0)
+            if remove.any():
+                img[1:-1, 1:-1][remove] = 0
+                changed = True
+        if not changed:
+            return img[1:-1, 1:-1].astype(bool)
+
+
+_OFFSETS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
+
+
+def _graph(skel: np.ndarray) -> dict:
+    pts = list(zip(*np.nonzero(skel)))
+    s = set(pts)
+    return {p: [(p[0] + dy, p[1] + dx) for dy, dx in _OFFSETS if (p[0] + dy, p[1] + dx) in s] for p in pts}
+
+
+def _bfs(g: dict, start) -> tuple[dict, dict]:
+    dist, prev = {start: 0}, {start: None}
+    q = deque([start])
+    while q:
+        p = q.popleft()
+        for n in g[p]:
+            if n not in dist:
+                dist[n], prev[n] = dist[p] + 1, p
+                q.append(n)
+    return dist, prev
+
+
+def _path(prev: dict, end) -> list:
+    out = []
+    while end is not None:
+        out.append(end)
+        end = prev[end]
+    return out[::-1]
+
+
+def prune(skel: np.ndarray, min_len: int) -> np.ndarray:
+    """Remove branches from an end point to a junction shorter than min_len pixels (repeated twice)."""
+    skel = skel.copy()
+    for _ in range(2):
+        g = _graph(skel)
+        ends = [p for p, n in g.items() if len(n) == 1]
+        for e in ends:
+            branch, p, prevp = [e], e, None
+            while True:
+                nxt = [n for n in g[p] if n != prevp and n not in branch]
+                if len(g[p]) > 2 or not nxt:
+                    break
+                prevp, p = p, nxt[0]
+                branch.append(p)
+            if len(g[p]) > 2 and len(branch) < min_len:
+                for q in branch[:-1]:
+                    skel[q] = False
+    return skel
+
+
+def main_path(skel: np.ndarray) -> np.ndarray:
+    """The longest shortest-path in the skeleton (its 'diameter'), as (N, 2) array of (x, y)."""
+    g = _graph(skel)
+    if not g:
+        return np.zeros((0, 2))
+    start = next(iter(g))
+    dist, _ = _bfs(g, start)
+    a = max(dist, key=dist.get)
+    dist, prev = _bfs(g, a)
+    b = max(dist, key=dist.get)
+    return np.array([(x, y) for y, x in _path(prev, b)], float)
+
+
+def _line_residual(pts: np.ndarray) -> float:
+    """Largest distance of the points from their least-squares line, over the points' extent."""
+    if len(pts) < 3:
+        return 0.0
+    c = pts - pts.mean(axis=0)
+    _u, _s, vt = np.linalg.svd(c, full_matrices=False)
+    normal = vt[1]
+    extent = max(float(np.ptp(c @ vt[0])), 1.0)
+    return float(np.abs(c @ normal).max()) / extent
+
+
+def _direction(pts: np.ndarray) -> np.ndarray:
+    """Unit direction of the points from their first (the apex) to their far end."""
+    c = pts - pts.mean(axis=0)
+    v = np.linalg.svd(c, full_matrices=False)[2][0]
+    return v if np.dot(pts[-1] - pts[0], v) >= 0 else -v
+
+
+APEX_TRIM = 0.35  # share of each arm next to the apex left out of the line fits (the joint's rounding)
+
+
+def _trim(arm: np.ndarray) -> np.ndarray:
+    return arm[int(APEX_TRIM * len(arm)):] if len(arm) >= 6 else arm
+
+
+def shape_features(path: np.ndarray, size: float) -> np.ndarray:
+    """The 6-entry feature vector of one skeleton path (N, 2); size = the silhouette's longer side."""
+    fv = np.zeros(6)
+    if len(path) < 3:
+        fv[0] = 1.0
+        return fv
+    a, b = path[0], path[-1]
+    chord = b - a
+    length = max(float(np.hypot(*chord)), 1.0)
+    dev = np.abs(np.cross(chord, path - a)) / length
+    if _line_residual(path) < LINE_TOL:
+        fv[0] = 1.0
+        return fv
+    k = int(np.argmax(dev))
+    if k < 2 or k > len(path) - 3:
+        fv[4] = 1.0  # one curve, no apex
+        fv[5] = length / size
+        return fv
+    arm1, arm2 = _trim(path[k::-1]), _trim(path[k:])
+    curved = [_line_residual(arm) > LINE_TOL for arm in (arm1, arm2)]
+    fv[5] = length / size
+    if not any(curved):
+        cos = float(np.clip(np.dot(_direction(arm1), _direction(arm2)), -1, 1))
+        angle = np.degrees(np.arccos(cos))
+        fv[1 if angle < U_ANGLE else 2] = 1.0
+    elif all(curved):
+        fv[3] = fv[4] = 1.0
+    else:
+        fv[0] = fv[4] = 1.0
+    return fv
+
+
+def skeleton(mask: np.ndarray) -> np.ndarray:
+    """Pruned Zhang-Suen skeleton of a silhouette."""
+    mask = np.asarray(mask, bool)
+    if not mask.any():
+        raise ValueError("empty silhouette")
+    m = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8)).astype(bool)
+    ys, xs = np.nonzero(m)
+    size = max(np.ptp(ys), np.ptp(xs)) + 1
+    return prune(thin(m), max(3, int(SPUR * size)))
+
+
+def _fingers_only(mask: np.ndarray) -> np.ndarray:
+    """A hand photograph's silhouette without the forearm: drop what lies beyond the palm on the wrist side."""
+    from perception.ellipses import PALM_SCALE, hand_regions
+
+    r = hand_regions(mask)
+    side = r["wrist_side"]
+    if side is None:
+        return mask
+    px, py = r["critical_points"]["palm_centre"]
+    cut = PALM_SCALE * r["palm_radius"]
+    yy, xx = np.mgrid[: mask.shape[0], : mask.shape[1]]
+    beyond = {"bottom": yy > py + cut, "top": yy < py - cut, "left": xx < px - cut, "right": xx > px + cut}[side]
+    out = mask & ~beyond
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(out.astype(np.uint8), connectivity=8)
+    return labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])) if n > 1 else mask
+
+
+def feature_vector(mask: np.ndarray, hand: bool | None = None) -> np.ndarray:
+    """The thesis' 6-entry feature vector of a silhouette (see the module docstring), shape (6,).
+
+    hand: remove the forearm first (default: when the silhouette touches the picture's border, as a hand
+    photographed with its wrist leaving the frame does; drawn shapes that float free are used whole)."""
+    mask = np.asarray(mask, bool)
+    if not mask.any():
+        raise ValueError("empty silhouette")
+    touches = mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any()
+    if hand if hand is not None else touches:
+        mask = _fingers_only(mask)
+    ys, xs = np.nonzero(mask)
+    size = float(max(np.ptp(ys), np.ptp(xs)) + 1)
+    return shape_features(main_path(skeleton(mask)), size)
