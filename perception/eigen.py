@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.linalg import eigh
+from threadpoolctl import threadpool_limits
 
 from perception import features
 from perception.io import InputError
@@ -128,6 +129,11 @@ class EigenClassifier:
         return self.fit_features(self.features(images) if features is None else features, labels)
 
     def fit_features(self, x: np.ndarray, labels) -> "EigenClassifier":
+        # One BLAS thread: for these small matrices on 2 shared cores, threaded BLAS only adds overhead.
+        with threadpool_limits(1):
+            return self._fit_features(x, labels)
+
+    def _fit_features(self, x: np.ndarray, labels) -> "EigenClassifier":
         y = np.asarray(labels)
         if len(x) != len(y) or len(y) < 2:
             raise ValueError(f"need >= 2 images with one label each (got {len(x)} images, {len(y)} labels)")
@@ -150,6 +156,10 @@ class EigenClassifier:
 
     def predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(labels, confidence in 0..1 = share of the k nearest training images that voted for it)."""
+        with threadpool_limits(1):
+            return self._predict_features(x)
+
+    def _predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         omega = self.weights(x)
         tw = self.train_weights.astype(np.float64)
         d2 = (omega ** 2).sum(1)[:, None] - 2 * omega @ tw.T + (tw ** 2).sum(1)[None, :]

@@ -64,6 +64,7 @@ MIN_PERSON_AREA = 30  # pixels
 MIN_ARM_AREA = 5  # pixels
 HEAD_SHARE = 0.2  # of the static body's height, from its top
 TORSO_SHARE = 0.6  # the torso ends (hips) at 60% of the static body's height; below are the legs
+ARM_ZONE_SHARE = 0.8  # moving parts below 80% of the static body's height are not arms
 
 
 @dataclass
@@ -178,19 +179,20 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD) 
     anywhere = np.mean(np.stack(moving), axis=0) > 0.05
     stable = static_body(bg, near=anywhere)
     head = torso = None
-    r_hips = bg.shape[0]
+    r_arms = bg.shape[0]
     if stable.any():
         rows = np.flatnonzero(stable.any(axis=1))
         top, height = rows[0], rows[-1] - rows[0] + 1
         r_head, r_hips = top + int(round(HEAD_SHARE * height)), top + int(round(TORSO_SHARE * height))
         rr = np.arange(stable.shape[0])[:, None]
+        r_arms = top + int(round(ARM_ZONE_SHARE * height))
         head = stable & (rr < r_head)
         torso = stable & (rr >= r_head) & (rr < r_hips)
         head = head if head.any() else None
         torso = torso if torso.any() else None
     out = []
     cx = int(round(np.nonzero(stable)[1].mean())) if stable.any() else bg.shape[1] // 2
-    arm_zone = np.arange(bg.shape[0])[:, None] < r_hips  # arms are above the hips (not the shirt's edges)
+    arm_zone = np.arange(bg.shape[0])[:, None] < r_arms  # not the moving edges of a shirt or legs
     for mv in moving:
         left, right = _arms(mv & ~stable & arm_zone, cx)
         arms = [a for a in (left, right) if a is not None]

@@ -157,7 +157,8 @@ def shape_features(path: np.ndarray, size: float) -> np.ndarray:
     a, b = path[0], path[-1]
     chord = b - a
     length = max(float(np.hypot(*chord)), 1.0)
-    dev = np.abs(np.cross(chord, path - a)) / length
+    rel = path - a
+    dev = np.abs(chord[0] * rel[:, 1] - chord[1] * rel[:, 0]) / length
     if _line_residual(path) < LINE_TOL:
         fv[0] = 1.0
         return fv
