@@ -13,7 +13,9 @@ def register(sub) -> None:
     p.set_defaults(func=_coordinator)
     p = sub.add_parser("imitate", help="perception -> coordinator -> N agent processes -> formation, MCAP, fidelity")
     p.add_argument("input", help="image, folder of frames, or video")
-    p.add_argument("--controller", default="region", choices=["region"])
+    p.add_argument("--controller", default="region", choices=["region", "pca", "ann"],
+                   help="region (default): fill the silhouette; pca: the recognised class' template; ann: skeleton -> body force")
+    p.add_argument("--frame", type=int, default=None, help="which frame of a clip or folder to imitate (default 0)")
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
@@ -39,7 +41,7 @@ def _imitate(args) -> int:
     if steps < 1:
         raise UserError(f"--steps: must be >= 1, got {steps}")
     try:
-        res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
+        res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller, frame=args.frame,
                       name=Path(args.input).stem or "imitate")
     except (InputError, SegmentationError) as exc:
         raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
-from coordinator.imitation_setup import DEFAULT_STEPS, prepare
+from coordinator.imitation_setup import DEFAULT_STEPS, prepare_input
 from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
 
@@ -33,28 +33,27 @@ class ImitationResult:
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
             controller: str = "region", failures=(), seed: int = 0, name: str = "imitate",
-            on_started=None, progress=None, per_agent=None, launcher_hook=None) -> ImitationResult:
-    from perception.io import load_frames
-
+            on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None) -> ImitationResult:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    frames = load_frames(input_path)
-    im = prepare(frames[0], agents)
+    frame = 0 if frame is None else frame
+    im = prepare_input(input_path, agents, controller=controller, frame=frame)
     mcap = out / f"{name}.mcap"
     with tempfile.TemporaryDirectory() as tmp:
         target = Path(tmp) / "target.npz"
         t = im.transform
         np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
         image = Path(tmp) / "input.jpg"
-        cv2.imwrite(str(image), frames[0])
-        meta = {"scenario": name, "input": str(input_path), "controller": controller, "agents": agents, "steps": steps,
+        cv2.imwrite(str(image), im.observation.frame)
+        meta = {"scenario": name, "input": str(input_path), "frame": frame, "gesture": im.command.gesture, "controller": controller, "agents": agents, "steps": steps,
                 "seed": seed, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
                 "transform": t.as_dict(), "failures": [getattr(f, "__dict__", str(f)) for f in failures]}
         with Launcher(agent_timeout=5.0, commands=True) as launcher:
             launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image))
             env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
             coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
-                                      "--input", str(input_path), "--agents", str(agents), "--controller", controller],
+                                      "--input", str(input_path), "--agents", str(agents), "--controller", controller,
+                                      "--frame", str(frame)],
                                      env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                      preexec_fn=_die_with_parent)
             launcher.coordinator = coord
@@ -79,7 +78,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     rows, cols = im.mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
     wps = np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
-    png = plot_formation(out / f"{name}_formation.png", pos, classes, None,
+    png = plot_formation(out / f"{name}_formation.png", pos, classes, [c.name for c in im.command.classes],
                          f"{Path(input_path).name}: {len(ids)} agents, iou {fid.iou:.2f}",
                          background=im.mask.astype(float), extent=extent, waypoints=wps)
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),

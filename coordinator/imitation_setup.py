@@ -10,7 +10,7 @@ from agent.sph.params import SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from coordinator.command import GestureCommand
-from coordinator.region import centre_px, domain_for, fit_transform, region_command
+from coordinator.region import body_region_command, domain_for, fit_transform, region_command
 from fluidswarm.geometry import ImageToDomain
 from perception.segmentation import hand_mask
 
@@ -31,15 +31,39 @@ class Imitation:
     transform: ImageToDomain
     command: GestureCommand
     setup: Setup
+    observation: object = None
 
 
-def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1) -> Imitation:
-    mask = hand_mask(frame_bgr)
-    transform = fit_transform(mask, n_agents)
+CONTROLLERS = ("region", "pca", "ann")
+
+
+def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = "region", seq: int = 1) -> GestureCommand:
+    """The chosen controller's command for one observation (coordinator.observe.Observation)."""
+    if controller == "region":
+        if obs.kind == "body":
+            return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
+        return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
+    if controller == "pca":
+        from coordinator.pca import pca_command
+
+        return pca_command(obs, transform, n_agents, seq=seq)
+    if controller == "ann":
+        from coordinator.ann import ann_command
+
+        return ann_command(obs, transform, n_agents, seq=seq)
+    raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
+
+
+def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = "region",
+                        transform: ImageToDomain | None = None) -> Imitation:
+    """Transform (silhouette area = what n_agents particles cover), SPH parameters, command, and the initial
+    swarm: a compact lattice (spacing 1 m) at the command's common first waypoint (palm/torso centre)."""
+    mask = obs.mask
+    transform = transform or fit_transform(mask, n_agents)
     params = imitation_params(domain_for(mask, transform))
-    command = region_command(mask, transform, n_agents, seq=seq)
-    cu, cv = centre_px(mask)
-    centre = transform.to_domain(np.array([cu, cv]))
+    command = build_command(obs, transform, n_agents, controller, seq)
+    first = command.classes[0].route[0]
+    centre = np.array([first.x, first.y])
     columns = max(1, int(round(np.sqrt(n_agents))))
     pos = lattice(n_agents, columns, 1.0)
     pos += centre - pos.mean(axis=0)
@@ -50,4 +74,32 @@ def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1) -> Imitation:
     shares = [c.share for c in command.classes]
     classes = np.array([class_of(i, n_agents, shares) for i in range(n_agents)])
     setup = Setup(np.arange(n_agents), states, controls, classes, tuple(c.name for c in command.classes), params)
-    return Imitation(mask, transform, command, setup)
+    return Imitation(mask, transform, command, setup, obs)
+
+
+def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = "region") -> Imitation:
+    """A hand photograph -> its imitation set-up."""
+    from coordinator.observe import Observation, hand_label
+
+    mask = hand_mask(frame_bgr)
+    return prepare_observation(Observation("hand", mask, hand_label(mask), frame_bgr), n_agents, seq, controller)
+
+
+def observations_for(path, frame: int | None = None):
+    """(all frames, their observations, the index of the frame to imitate)."""
+    from coordinator.observe import is_clip, observe
+    from perception.io import InputError, load_frames
+
+    frames = load_frames(path)
+    if frame is not None and not 0 <= frame < len(frames):
+        raise InputError(f"{path}: --frame {frame} out of range (the input has {len(frames)} frames)")
+    if frame is not None and len(frames) > 1 and not is_clip(path, frames):
+        frames = [frames[frame]]  # a folder of hand photographs: just the one
+        frame = 0
+    return frames, observe(path, frames), (frame or 0)
+
+
+def prepare_input(path, n_agents: int, controller: str = "region", frame: int | None = None) -> Imitation:
+    """An image, folder or clip -> the set-up that imitates one of its frames (default the first)."""
+    _frames, obs, k = observations_for(path, frame)
+    return prepare_observation(obs[k], n_agents, controller=controller)

@@ -23,18 +23,22 @@ from agent import keys
 from agent.session import client_config
 
 
-def commands_for_frames(frames, n_agents: int):
-    """One command per distinct gesture along the frames (consecutive equal gestures are merged)."""
-    from coordinator.imitation_setup import prepare
+def commands_for_frames(path, n_agents: int, controller: str = "region", frame: int | None = None):
+    """One command per recognised gesture along the frames: a new one (next sequence number) whenever the
+    recognised gesture (Observation.label) changes between consecutive frames. With `frame`, only that
+    frame. The image -> domain transform is fixed by the first frame shown (so is the imitate target's)."""
+    from coordinator.imitation_setup import build_command, observations_for
+    from coordinator.region import fit_transform
 
+    _frames, obs, k = observations_for(path, frame)
+    shown = [obs[k]] if frame is not None else obs
+    transform = fit_transform(shown[0].mask, n_agents)
     out = []
-    last_sig = None
-    for frame in frames:
-        im = prepare(frame, n_agents, seq=len(out) + 1)
-        sig = tuple(round(c.share, -1) for c in im.command.classes), len(im.command.classes)
-        if sig != last_sig:
-            out.append(im.command)
-            last_sig = sig
+    last = None
+    for o in shown:
+        if o.label != last:
+            out.append(build_command(o, transform, n_agents, controller, seq=len(out) + 1))
+            last = o.label
     return out
 
 
@@ -44,7 +48,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", required=True, help="image, folder of frames, or video")
     ap.add_argument("--agents", type=int, required=True)
-    ap.add_argument("--controller", default="region", choices=["region"])
+    ap.add_argument("--controller", default="region", choices=["region", "pca", "ann"])
+    ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
     ap.add_argument("--user", default="")
@@ -61,11 +66,11 @@ def main(argv: list[str] | None = None) -> int:
     if not keys.valid_run_name(args.run) or args.agents < 1 or args.period <= 0:
         print("fluidswarm coordinator: error: bad --run, --agents or --period", file=sys.stderr)
         return 2
-    from perception.io import InputError, load_frames
+    from perception.io import InputError
     from perception.segmentation import SegmentationError
 
     try:
-        commands = commands_for_frames(load_frames(args.input), args.agents)
+        commands = commands_for_frames(args.input, args.agents, args.controller, args.frame)
     except (InputError, SegmentationError) as exc:
         print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
         return 1

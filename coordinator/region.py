@@ -83,3 +83,71 @@ def region_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, se
     extra = {"controller": "region", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
     return GestureCommand(seq=seq, gesture=gesture, n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2,
                           extra=extra)
+
+
+def _region_labels(mask: np.ndarray, k: int):
+    """Like `regions`, with each silhouette pixel's region: (centres (k, 2) (u, v), counts (k,), us, vs, labels)."""
+    vs, us = np.nonzero(mask)
+    pts = np.stack([us, vs], axis=1).astype(np.float32)
+    k = max(1, min(k, len(pts)))
+    cv2.setRNGSeed(12345)
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.05)
+    _c, labels, centres = cv2.kmeans(pts, k, None, criteria, 4, cv2.KMEANS_PP_CENTERS)
+    labels = labels.ravel()
+    return centres.astype(float), np.bincount(labels, minlength=k), us, vs, labels
+
+
+ARM_PARTS = ("left_arm", "right_arm")
+
+
+def body_region_command(mask: np.ndarray, parts: dict, transform: ImageToDomain, n_agents: int, seq: int = 1,
+                        gesture: str = "body", k: int | None = None, alpha: float = 4.0,
+                        beta_arm: float = 20.0) -> GestureCommand:
+    """A person's silhouette (thesis ch. 6, body poses): the same fill by K compact regions, each region
+    belonging to the part (torso, left arm, right arm) most of its pixels lie in. Every route starts at
+    the torso centre; an arm region's route then passes the shoulder (the arm pixel nearest the torso
+    centre, the critical point), where its particles switch to the arms' stiffness (thesis: beta 2 -> 20),
+    and ends at the region's centre. Class names say the part: torso0.., left_arm0.., right_arm0.."""
+    k = k or int(np.clip(round(n_agents / 3), 4, 30))
+    torso = parts.get("torso")
+    if torso is not None and torso.any():
+        ty, tx = np.nonzero(torso)
+        cu, cv = float(tx.mean()), float(ty.mean())
+    else:
+        cu, cv = centre_px(mask)
+    centre = transform.to_domain(np.array([cu, cv]))
+    cents, counts, us, vs, labels = _region_labels(mask, k)
+    cents_m = transform.to_domain(cents)
+    part_names = ["torso"] + [p for p in ARM_PARTS if p in parts]
+    owner = []
+    for j in range(len(cents)):
+        sel = labels == j
+        votes = [int(parts[p][vs[sel], us[sel]].sum()) if p in parts else 0 for p in part_names]
+        votes[0] = max(votes[0], 0)
+        best = int(np.argmax(votes))
+        # regions the arms do not claim (torso, head, legs) belong to the body
+        owner.append(part_names[best] if best > 0 and votes[best] > 0.3 * sel.sum() else "torso")
+    shoulders = {}
+    for p in ARM_PARTS:
+        if p in parts:
+            ay, ax = np.nonzero(parts[p])
+            i = int(np.argmin(np.hypot(ax - cu, ay - cv)))
+            shoulders[p] = transform.to_domain(np.array([float(ax[i]), float(ay[i])]))
+    start_radius = max(1.5, math.sqrt(n_agents / math.pi) + 0.5)
+    far = np.hypot(cents_m[:, 0] - centre[0], cents_m[:, 1] - centre[1])
+    classes = []
+    counter: dict[str, int] = {}
+    for j in np.argsort(far, kind="stable"):
+        part = owner[j]
+        eq_radius = math.sqrt(counts[j] * transform.scale ** 2 / math.pi)
+        route = [Waypoint(float(centre[0]), float(centre[1]), r=start_radius, s=2.0, alpha=alpha)]
+        if part in shoulders:
+            sx, sy = shoulders[part]
+            route.append(Waypoint(float(sx), float(sy), r=1.5, s=2.0, alpha=alpha, beta=beta_arm))
+        route.append(Waypoint(float(cents_m[j, 0]), float(cents_m[j, 1]), r=0.5 * eq_radius, s=2.0, alpha=alpha))
+        name = f"{part}{counter.get(part, 0)}"
+        counter[part] = counter.get(part, 0) + 1
+        classes.append(ParticleClass(name, float(counts[j]), tuple(route)))
+    extra = {"controller": "region", "kind": "body", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
+    return GestureCommand(seq=seq, gesture=gesture[:64], n_agents=int(n_agents), classes=tuple(classes), beta=2.0,
+                          mu=0.2, extra=extra)

@@ -1,0 +1,90 @@
+"""What the coordinator observes: one target silhouette per frame, its parts and the recognised gesture.
+
+A hand photograph (or a folder of them, a gesture sequence) -> `perception.segmentation.hand_mask`.
+A clip with a static camera (video file or Weizmann strip) -> `perception.segmentation.person_regions`:
+the person's silhouette with its torso (head included), left and right arm.
+
+`label` is what was recognised (the body pose from the arm ellipses, or the hand's silhouette shape from
+the skeleton features): the coordinator publishes a new command when it changes between frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from perception.io import VIDEO_SUFFIXES
+
+
+@dataclass
+class Observation:
+    kind: str  # "hand" | "body"
+    mask: np.ndarray  # bool (rows, cols): the target silhouette
+    label: str  # the recognised gesture / pose
+    frame: np.ndarray | None = None  # the BGR picture (for the eigen classifier and the recording)
+    parts: dict = field(default_factory=dict)  # body: {"torso", "left_arm", "right_arm"} bool masks (or absent)
+    index: int = 0
+
+
+def is_clip(path: str | Path, frames: list) -> bool:
+    """A video or a Weizmann strip (a person in a static-camera clip), not a folder of hand photographs."""
+    path = Path(path)
+    return not path.is_dir() and len(frames) >= 3 and (path.suffix.lower() in VIDEO_SUFFIXES or frames[0].shape[:2] == (64, 64))
+
+
+def arm_pose(arm: np.ndarray | None, torso_centre) -> str:
+    """'up' | 'down' | 'side' for an arm mask, from the direction torso centre -> arm centroid."""
+    if arm is None or not arm.any():
+        return "none"
+    ys, xs = np.nonzero(arm)
+    dx, dy = xs.mean() - torso_centre[0], torso_centre[1] - ys.mean()  # dy > 0: above the torso centre
+    ang = np.degrees(np.arctan2(dy, abs(dx)))
+    return "up" if ang > 40 else "down" if ang < -40 else "side"
+
+
+def body_label(parts: dict) -> str:
+    torso = parts.get("torso")
+    if torso is None or not torso.any():
+        return "body"
+    ys, xs = np.nonzero(torso)
+    c = (xs.mean(), ys.mean())
+    return f"left_{arm_pose(parts.get('left_arm'), c)}-right_{arm_pose(parts.get('right_arm'), c)}"
+
+
+def hand_label(mask: np.ndarray) -> str:
+    try:
+        from perception.skeleton import NAMES, feature_vector
+
+        fv = feature_vector(mask)
+    except Exception:  # a silhouette the skeleton cannot read is still a gesture
+        return "hand"
+    on = [n for n, v in zip(NAMES[:5], fv[:5]) if v]
+    return "+".join(on) or "blob"
+
+
+def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
+    """One Observation per frame. Raises perception's InputError / SegmentationError."""
+    if is_clip(path, frames):
+        from perception.segmentation import person_regions
+
+        out = []
+        for i, (f, r) in enumerate(zip(frames, person_regions(frames))):
+            torso = None
+            if r.torso is not None or r.head is not None:
+                torso = np.zeros(r.silhouette.shape, bool)
+                for m in (r.torso, r.head):
+                    if m is not None:
+                        torso |= m
+            parts = {k: v for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
+                     if v is not None and v.any()}
+            out.append(Observation("body", r.silhouette.astype(bool), body_label(parts), f, parts, i))
+        return out
+    from perception.segmentation import hand_mask
+
+    out = []
+    for i, f in enumerate(frames):
+        m = hand_mask(f)
+        out.append(Observation("hand", m, hand_label(m), f, {}, i))
+    return out
