@@ -1,0 +1,90 @@
+"""`fluidswarm imitate` end to end (perception -> coordinator process -> agent processes -> MCAP) on real
+pictures: a V sign splits into two branches, one finger gives one elongated branch, a Weizmann two-hand
+wave with the arms sideways gives arm-class particles on both sides of the torso."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agent.route import class_of
+from coordinator.imitation_setup import prepare_input
+from fluidswarm.recording.reader import load_run
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED = REPO.parent / "shared" / "datasets"
+WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"  # = shared weizmann-actions-64/wave2/person0.png
+WAVE2_SIDEWAYS = 14  # perception/data/weizmann_wave2_labels.json: person0 frames 14, 16 have the arms sideways
+
+
+def shared_image(cls: int) -> Path:
+    folder = SHARED / "sign-language-digits" / str(cls)
+    if not folder.is_dir():
+        pytest.fail(f"this test needs ../shared/datasets/sign-language-digits (missing: {folder})")
+    return sorted(folder.iterdir())[-1]
+
+
+def imitate(path: Path, out: Path, agents: int, steps: int, *extra: str):
+    r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(path), "--agents", str(agents), "--steps",
+                        str(steps), "--out", str(out), *extra], capture_output=True, text=True, timeout=300, cwd=REPO)
+    assert r.returncode == 0, r.stderr[-3000:]
+    figures = dict(line.split("=", 1) for line in r.stdout.split() if "=" in line)
+    run = load_run(figures["mcap"], images=False)
+    last = run.frames[-1]
+    assert len(last.ids) == agents
+    order = np.argsort(last.ids)
+    return last.ids[order], last.positions[order], figures
+
+
+def branches(positions: np.ndarray, split_y: float, gap: float = 1.5) -> tuple[int, float]:
+    """Groups of the particles above split_y along x (a gap wider than `gap` m separates two): (count, widest gap)."""
+    xs = np.sort(positions[positions[:, 1] > split_y, 0])
+    if len(xs) < 2:
+        return len(xs), 0.0
+    gaps = np.diff(xs)
+    return 1 + int(np.sum(gaps > gap)), float(gaps.max())
+
+
+def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path):
+    v = shared_image(2)
+    _ids, pos2, fig2 = imitate(v, tmp_path / "v", 60, 500)
+    im2 = prepare_input(v, 60)
+    # The fingers separate in the V's top third (image rows), mapped to the domain with the run's transform.
+    rows = np.nonzero(im2.mask.any(axis=1))[0]
+    top_y = im2.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1]
+    n2, gap2 = branches(pos2, top_y)
+    one = shared_image(1)
+    _ids, pos1, fig1 = imitate(one, tmp_path / "one", 40, 450)
+    extent = np.ptp(pos1, axis=0)
+    print(f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['fidelity_iou']}; "
+          f"one finger: extent x {extent[0]:.1f} m, y {extent[1]:.1f} m, iou {fig1['fidelity_iou']}")
+    assert n2 == 2 and gap2 > 1.5
+    assert extent[1] > 1.8 * extent[0]  # one elongated (upright) branch
+    assert float(fig2["fidelity_iou"]) >= 0.45 and float(fig1["fidelity_iou"]) >= 0.45
+
+
+def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(tmp_path):
+    ids, pos, fig = imitate(WAVE2, tmp_path / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS))
+    im = prepare_input(WAVE2, 48, frame=WAVE2_SIDEWAYS)
+    assert im.observation.kind == "body" and im.observation.label == "left_side-right_side"
+    shares = [c.share for c in im.command.classes]
+    names = [im.command.classes[class_of(int(i), 48, shares)].name for i in ids]
+    part = np.array([n.rstrip("0123456789") for n in names])
+    torso = pos[part == "torso"]
+    left, right = pos[part == "left_arm"], pos[part == "right_arm"]
+    assert len(left) >= 2 and len(right) >= 2 and len(torso) >= 10
+    # the torso column: its particles' x extent around the torso centre
+    t_lo, t_hi = np.percentile(torso[:, 0], [10, 90])
+    ty = np.median(torso[:, 1])
+    print(f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; right arm x {np.round(right[:, 0], 1)}; "
+          f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['fidelity_iou']}")
+    assert np.all(left[:, 0] < t_lo) and np.all(right[:, 0] > t_hi)
+    # sideways: the arms reach out at least as far as the torso is wide, above the torso's middle
+    width = t_hi - t_lo
+    assert t_lo - left[:, 0].min() > 0.5 * width and right[:, 0].max() - t_hi > 0.5 * width
+    assert np.median(left[:, 1]) > ty and np.median(right[:, 1]) > ty
+    assert float(fig["fidelity_iou"]) >= 0.45
