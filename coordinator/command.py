@@ -97,13 +97,25 @@ def _only(d, allowed: set, where: str) -> None:
         raise CommandRejected("malformed", f"{where}: unknown field {sorted(extra)[0]!r}")
 
 
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not allowed")
+
+
+def _finite(text: str) -> float:
+    v = float(text)
+    if not math.isfinite(v):
+        raise ValueError(f"{text[:20]} is not finite")
+    return v
+
+
 def decode(data: bytes, secret: bytes) -> GestureCommand:
     """Verify and parse an envelope from the network; raise CommandRejected with the reason."""
     if not isinstance(data, (bytes, bytearray)) or len(data) > MAX_BYTES:
         raise CommandRejected("malformed", "too large or not bytes")
     try:
-        env = json.loads(data)
-    except (ValueError, UnicodeDecodeError):
+        # NaN/Infinity (and numbers that overflow to them) are not JSON numbers
+        env = json.loads(data, parse_constant=_no_constant, parse_float=_finite)
+    except (ValueError, UnicodeDecodeError, RecursionError):
         raise CommandRejected("malformed", "not JSON") from None
     _only(env, {"v", "body", "sig"}, "envelope")
     if env.get("v") != VERSION:
@@ -111,7 +123,13 @@ def decode(data: bytes, secret: bytes) -> GestureCommand:
     body, sig = env.get("body"), env.get("sig")
     if not isinstance(body, dict) or not isinstance(sig, str):
         raise CommandRejected("malformed", "body/sig missing")
-    expected = hmac.new(secret, _canonical(body), hashlib.sha256).hexdigest()
+    if len(sig) != 64 or not sig.isascii():
+        raise CommandRejected("signature", "not a hex HMAC-SHA256")
+    try:
+        canonical = _canonical(body)
+    except (ValueError, TypeError, RecursionError):
+        raise CommandRejected("malformed", "body not canonical JSON") from None
+    expected = hmac.new(secret, canonical, hashlib.sha256).hexdigest()
     if not hmac.compare_digest(expected, sig):
         raise CommandRejected("signature")
     return parse_body(body)

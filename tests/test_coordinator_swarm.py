@@ -181,3 +181,32 @@ def test_late_joiner_gets_the_command_within_one_second():
     latency = got[0]["seconds_since_session_open"]
     print(f"late joiner: command {latency * 1000:.0f} ms after its session opened")
     assert 0 <= latency <= 1.0
+
+
+def test_coordinator_publishes_a_new_command_when_the_gesture_changes():
+    """A Weizmann clip through the coordinator process: the recognised pose changes (arms up, sideways, ...),
+    so it publishes commands with increasing sequence numbers and different gestures."""
+    clip = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"
+    secret = os.urandom(32)
+    with Launcher(commands=True) as la:
+        env = dict(os.environ, FLUIDSWARM_SECRET=secret.hex())
+        got = []
+        sub = la.session.declare_subscriber(keys.command_key(la.run), lambda s: got.append(s.payload.to_bytes()))
+        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
+                                  "--input", str(clip), "--agents", "20", "--frame-seconds", "0.4"], env=env)
+        try:
+            deadline = time.monotonic() + 40
+            while time.monotonic() < deadline:
+                if len({decode(p, secret).seq for p in list(got)}) >= 3:
+                    break
+                time.sleep(0.2)
+        finally:
+            coord.terminate()
+            coord.wait(10)
+            sub.undeclare()
+    cmds = [decode(p, secret) for p in got]
+    seqs = [c.seq for c in cmds]
+    assert seqs == sorted(seqs) and len(set(seqs)) >= 3
+    by_seq = {c.seq: c.gesture for c in cmds}
+    gestures = [by_seq[k] for k in sorted(by_seq)]
+    assert all(a != b for a, b in zip(gestures, gestures[1:])), gestures
