@@ -24,6 +24,10 @@ def register(sub) -> None:
     p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
     p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
     p.add_argument("--password", default="")
+    p.add_argument("--mode", choices=("lockstep", "async"), default="lockstep",
+                   help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)")
+    p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
+    p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
     p.set_defaults(func=_launch)
 
     p = sub.add_parser("verify", help="N agent processes against the per-particle reference driver")
@@ -75,6 +79,10 @@ def _launch(args) -> int:
     from agent.sph.setups import spread_block
 
     _check_counts(args.agents, args.steps)
+    for name in ("rate", "max_age"):
+        v = getattr(args, name)
+        if not (v > 0 and v < float("inf")):
+            raise UserError(f"--{name.replace('_', '-')}: must be a positive number, got {v}")
     setup = spread_block(args.agents)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     try:
@@ -87,7 +95,9 @@ def _launch(args) -> int:
         if args.record:
             launcher.start_recorder(args.record, {"scenario": "launch", "agents": args.agents, "steps": args.steps,
                                                   "params": setup.params.as_dict()}, setup.params.dt)
-        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids))
+        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids),
+                        mode=args.mode, rate=args.rate, max_age=args.max_age)
+    print(f"mode={args.mode}")
     print(f"agents={len(res.ids)}")
     print(f"finished={sum(1 for r in res.finals.values() if r['status'] == 'done')}")
     print(f"steps_per_second={res.steps_per_second():.2f}")

@@ -3,6 +3,10 @@
 Protocol (docs/protocol.md): one exchange per step. At step m the agent publishes its state in its
 spatial cell, waits for the step-m states of the agents it expects near it, and computes its state for
 step m+1 with `step_particle`. It only ever subscribes to the cells within R_sub of itself.
+
+Asynchronous mode (`mode="async"`) drops the wait: each agent steps on its own clock at `rate` steps/s
+with the latest state heard from each neighbour, as long as it is no older than `max_age` seconds -- what
+a robot with its own control loop and lossy radio would do. Not reproducible, by design.
 """
 
 from __future__ import annotations
@@ -92,6 +96,8 @@ class Agent:
         self.subscribers: dict[tuple[int, int], object] = {}
         self.step_started_at: float | None = None
         self.step_ended_at: float | None = None
+        self.asynchronous = spec.mode == "async"
+        self.fresh: dict[int, tuple[float, list]] = {}  # async: neighbour -> (heard at, latest state)
 
     # ---- Zenoh callbacks: decode nothing heavy, just enqueue ------------------------------------
     def _on_state(self, sample) -> None:
@@ -117,6 +123,7 @@ class Agent:
             if j is not None and j != self.spec.id and j not in self.dead:
                 self.dead.add(j)
                 self.latest.pop(j, None)
+                self.fresh.pop(j, None)
                 self.counters["deaths_seen"] += 1
         elif kind == 2:
             key, payload = data
@@ -150,6 +157,10 @@ class Agent:
         if last is None or step >= last[0]:
             self.latest[j] = (step, values[X], values[Y])
             self.heard_at[j] = time.monotonic()
+            if self.asynchronous:
+                self.fresh[j] = (self.heard_at[j], values)
+        if self.asynchronous:
+            return
         if step < self.step:
             self.counters["stale"] += 1
             return
@@ -293,24 +304,7 @@ class Agent:
             self._event("started")
             self.step_started_at = time.time()
             self.last_step_done = time.monotonic()
-            while self.step < spec.steps:
-                while self.clock is not None and self.step > self.clock + CLOCK_LEAD:
-                    self._drain(0.05)  # an isolated particle must not run ahead of the swarm
-                self._publish()
-                self._wait_for(self._expected() - {spec.id})
-                self._drain(0)
-                current = self.buffer.pop(self.step, {})
-                if current:
-                    ids = sorted(current)
-                    neighbours = np.array([current[j] for j in ids])
-                else:
-                    neighbours = np.empty((0, NFIELDS))
-                control = self.controller.control(self.state, self.step) if self.controller is not None else self.static_control
-                self.counters["neighbours"] += len(interacting(self.state, neighbours, self.params)) if len(neighbours) else 0
-                self.state = step_particle(self.state, neighbours, control, self.params)
-                self.step += 1
-                self.last_step_done = time.monotonic()
-                self._update_subscriptions()
+            (self._run_async if self.asynchronous else self._run_lockstep)()
             self.step_ended_at = time.time()
             self._publish()  # the final state, so neighbours still waiting for it are not held up
             self._report("done")
@@ -322,6 +316,66 @@ class Agent:
         except Stop:
             self._report("stopped")
             return EXIT_STOPPED
+
+    def _run_lockstep(self) -> None:
+        """Publish, wait for the expected neighbours' states of this step, then step (docs/protocol.md)."""
+        spec = self.spec
+        while self.step < spec.steps:
+            while self.clock is not None and self.step > self.clock + CLOCK_LEAD:
+                self._drain(0.05)  # an isolated particle must not run ahead of the swarm
+            self._publish()
+            self._wait_for(self._expected() - {spec.id})
+            self._drain(0)
+            current = self.buffer.pop(self.step, {})
+            if current:
+                ids = sorted(current)
+                neighbours = np.array([current[j] for j in ids])
+            else:
+                neighbours = np.empty((0, NFIELDS))
+            self._advance(neighbours)
+
+    def _advance(self, neighbours: np.ndarray) -> None:
+        """One SPH step of this particle with the given neighbour rows (both modes)."""
+        control = self.controller.control(self.state, self.step) if self.controller is not None else self.static_control
+        self.counters["neighbours"] += len(interacting(self.state, neighbours, self.params)) if len(neighbours) else 0
+        self.state = step_particle(self.state, neighbours, control, self.params)
+        self.step += 1
+        self.last_step_done = time.monotonic()
+        self._update_subscriptions()
+
+    def _fresh_neighbours(self, now: float) -> np.ndarray:
+        """Async mode: the latest state of every neighbour heard within max_age; older ones are forgotten."""
+        cutoff = now - self.spec.max_age
+        rows, expired = [], []
+        for j, (t, values) in list(self.fresh.items()):
+            if t >= cutoff:
+                rows.append(values)
+                continue
+            del self.fresh[j]
+            dx, dy = values[X] - self.state[X], values[Y] - self.state[Y]
+            # Within the support when last heard and still subscribed to: it went silent (frozen, dropping
+            # messages) rather than moved away, which is what a lockstep neighbour timeout reports.
+            if dx * dx + dy * dy <= self.params.support ** 2:
+                expired.append(j)
+        if expired:
+            self.counters["timeouts"] += len(expired)
+            self._event("neighbour_timeout", neighbours=sorted(expired))
+        return np.array(rows) if rows else np.empty((0, NFIELDS))
+
+    def _run_async(self) -> None:
+        """Step on this agent's own clock; never wait for anyone (docs/protocol.md, asynchronous mode)."""
+        period = 1.0 / self.spec.rate
+        due = time.monotonic()
+        while self.step < self.spec.steps:
+            self._publish()
+            self._drain(0)
+            now = time.monotonic()
+            self._advance(self._fresh_neighbours(now))
+            due += period
+            if now - due > self.spec.max_age:
+                due = now  # after a freeze: carry on at the rate instead of racing through the missed steps
+            while (left := due - time.monotonic()) > 0:
+                self._drain(left)
 
     def _join(self) -> None:
         """A late joiner adopts the step of the first states it hears around it (docs/protocol.md)."""

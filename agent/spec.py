@@ -10,6 +10,8 @@ from agent.keys import valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
 
+MODES = ("lockstep", "async")
+
 
 @dataclass
 class AgentSpec:
@@ -27,6 +29,10 @@ class AgentSpec:
     drop_out       fraction [0, 1) of this agent's outgoing state messages to drop (failure injection)
     secret         hex key of the run's command signatures (HMAC-SHA256), never sent on the bus
     join           True for a late joiner: adopt the swarm's current step instead of waiting for start
+    mode           "lockstep" (wait for every expected neighbour's state of the same step; reproducible) or
+                   "async" (step on the agent's own clock with the latest neighbour states; docs/protocol.md)
+    rate           steps/s an async agent aims for (its own clock); a late agent does not race to catch up
+    max_age        s: in async mode a neighbour state older than this is not used (frozen, gone or far)
     """
 
     run: str
@@ -43,6 +49,9 @@ class AgentSpec:
     join: bool = False
     user: str = ""
     password: str = ""
+    mode: str = "lockstep"
+    rate: float = 12.0
+    max_age: float = 1.0
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), separators=(",", ":"))
@@ -78,7 +87,9 @@ class AgentSpec:
             raise ValueError(f"agent spec: initial must be [x, y, vx, vy] finite numbers, got {self.initial!r}")
         if not isinstance(self.connect, list) or not all(isinstance(e, str) and e for e in self.connect):
             raise ValueError("agent spec: connect must be a list of endpoints")
-        for name in ("timeout", "start_timeout"):
+        if self.mode not in MODES:
+            raise ValueError(f"agent spec: mode must be one of {MODES}, got {self.mode!r}")
+        for name in ("timeout", "start_timeout", "rate", "max_age"):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"agent spec: {name} must be > 0, got {v!r}")
