@@ -15,6 +15,8 @@ import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
 from coordinator.imitation_setup import DEFAULT_STEPS, prepare_input
+from agent.sph.params import SPHParams
+from agent.sph.particle import initial_state
 from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
 
@@ -33,11 +35,25 @@ class ImitationResult:
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
             controller: str = "region", failures=(), seed: int = 0, name: str = "imitate",
-            on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None) -> ImitationResult:
+            on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
+            frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
+            rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0) -> ImitationResult:
+    """Imitate one frame of `input_path` (or, with `frame_steps` > 0, the gesture sequence of all its frames,
+    each shown for `frame_steps` swarm steps). `sph`/`dt` override the imitation's SPH parameters; `mode`,
+    `rate`, `max_age` choose lockstep or asynchronous agents (docs/protocol.md). `launcher_hook(launcher, im)`
+    runs before the agents start; `launcher.spawn_late(count)` then starts late joiners."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    frame = 0 if frame is None else frame
-    im = prepare_input(input_path, agents, controller=controller, frame=frame)
+    sequence = frame_steps > 0
+    frame = None if sequence else (0 if frame is None else frame)
+    im = prepare_input(input_path, agents, controller=controller, frame=frame, sequence=sequence)
+    if sph or dt:
+        fields = im.setup.params.as_dict()
+        fields.update(sph or {})
+        if dt:
+            fields["dt"] = dt
+        fields["domain"] = tuple(fields["domain"])
+        im.setup.params = SPHParams(**fields)
     mcap = out / f"{name}.mcap"
     with tempfile.TemporaryDirectory() as tmp:
         target = Path(tmp) / "target.npz"
@@ -45,24 +61,31 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
         np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
         image = Path(tmp) / "input.jpg"
         cv2.imwrite(str(image), im.observation.frame)
-        meta = {"scenario": name, "input": str(input_path), "frame": frame, "gesture": im.command.gesture, "controller": controller, "agents": agents, "steps": steps,
-                "seed": seed, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
+        meta = {"scenario": name, "input": str(input_path), "frame": frame, "frame_steps": frame_steps,
+                "gesture": im.command.gesture, "controller": controller, "agents": agents, "steps": steps,
+                "seed": seed, "sync": mode, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
                 "transform": t.as_dict(), "failures": [getattr(f, "__dict__", str(f)) for f in failures]}
-        with Launcher(agent_timeout=5.0, commands=True) as launcher:
+        with Launcher(agent_timeout=agent_timeout, commands=True) as launcher:
             launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image))
             env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
-            coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
-                                      "--input", str(input_path), "--agents", str(agents), "--controller", controller,
-                                      "--frame", str(frame)],
-                                     env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                     preexec_fn=_die_with_parent)
+            cmd = [sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
+                   "--input", str(input_path), "--agents", str(agents), "--controller", controller]
+            cmd += ["--frame-steps", str(frame_steps)] if sequence else ["--frame", str(frame)]
+            coord = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.PIPE, preexec_fn=_die_with_parent)
             launcher.coordinator = coord
+            launcher.spawn_late = lambda count: _spawn_late(launcher, im, steps, count, mode, rate, max_age)
             try:
                 launcher.track_progress()
                 if launcher_hook is not None:
                     launcher_hook(launcher, im)
                 res = run_swarm(im.setup, steps, launcher=launcher, on_started=on_started, progress=progress,
-                                per_agent=per_agent)
+                                per_agent=per_agent, mode=mode, rate=rate, max_age=max_age)
+                late = [i for i in launcher.swarm.procs if i not in res.finals and i >= agents]
+                if late:  # late joiners finish at the same step as the rest; count them in the formation
+                    launcher.wait_finals(late, 30.0 + 0.1 * steps)
+                    with launcher.swarm.changed:
+                        res.finals.update({i: launcher.swarm.finals[i] for i in late if i in launcher.swarm.finals})
             finally:
                 if coord.poll() is None:
                     coord.terminate()
@@ -77,9 +100,26 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     fid = fidelity(im.mask, im.transform, pos)
     rows, cols = im.mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
-    wps = np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
+    wps = None if sequence else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
     png = plot_formation(out / f"{name}_formation.png", pos, classes, [c.name for c in im.command.classes],
                          f"{Path(input_path).name}: {len(ids)} agents, iou {fid.iou:.2f}",
                          background=im.mask.astype(float), extent=extent, waypoints=wps)
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
                            res.events, coord.returncode)
+
+
+def _spawn_late(launcher: Launcher, im, steps: int, count: int, mode: str, rate: float, max_age: float) -> list[int]:
+    """Start `count` extra agents (ids after the swarm's) at the common first waypoint (palm / torso centre);
+    they adopt the swarm's current step and take a class from their id (agent.route.class_of)."""
+    first = im.command.classes[0].route[0]
+    start = max(launcher.swarm.procs, default=-1) + 1
+    new = []
+    for k in range(count):
+        i = start + k
+        angle = 2.399963 * k  # golden-angle spiral: joiners do not start on top of each other
+        x, y = first.x + 0.6 * np.sqrt(k + 1) * np.cos(angle), first.y + 0.6 * np.sqrt(k + 1) * np.sin(angle)
+        state = initial_state(x, y, 0.0, 0.0, im.setup.params)
+        launcher.spawn(launcher.spec_for(i, state, im.setup.controls[0], im.setup.params, steps, join=True,
+                                         mode=mode, rate=rate, max_age=max_age))
+        new.append(i)
+    return new

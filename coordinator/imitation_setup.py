@@ -99,7 +99,18 @@ def observations_for(path, frame: int | None = None):
     return frames, observe(path, frames), (frame or 0)
 
 
-def prepare_input(path, n_agents: int, controller: str = "region", frame: int | None = None) -> Imitation:
-    """An image, folder or clip -> the set-up that imitates one of its frames (default the first)."""
+def prepare_input(path, n_agents: int, controller: str = "region", frame: int | None = None,
+                  sequence: bool = False) -> Imitation:
+    """An image, folder or clip -> the set-up that imitates one of its frames (default the first).
+
+    With `sequence` (a gesture sequence, thesis ch. 5) the swarm starts as for the first frame and the
+    target it is scored against is the last frame's silhouette, in the first frame's image -> domain
+    transform (the coordinator keeps that transform along the sequence too)."""
+    if sequence:
+        _frames, obs, _k = observations_for(path, None)
+        im = prepare_observation(obs[0], n_agents, controller=controller)
+        im.mask = obs[-1].mask
+        im.observation = obs[-1]
+        return im
     _frames, obs, k = observations_for(path, frame)
     return prepare_observation(obs[k], n_agents, controller=controller)

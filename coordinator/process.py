@@ -25,8 +25,13 @@ from agent.session import client_config
 
 def commands_for_frames(path, n_agents: int, controller: str = "region", frame: int | None = None):
     """One command per recognised gesture along the frames: a new one (next sequence number) whenever the
-    recognised gesture (Observation.label) changes between consecutive frames. With `frame`, only that
+    recognised gesture (the command's `gesture`) changes between consecutive frames. With `frame`, only that
     frame. The image -> domain transform is fixed by the first frame shown (so is the imitate target's)."""
+    return [c for _k, c in frame_commands(path, n_agents, controller, frame)]
+
+
+def frame_commands(path, n_agents: int, controller: str = "region", frame: int | None = None):
+    """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
     from coordinator.imitation_setup import build_command, observations_for
     from coordinator.region import fit_transform
 
@@ -35,11 +40,29 @@ def commands_for_frames(path, n_agents: int, controller: str = "region", frame: 
     transform = fit_transform(shown[0].mask, n_agents)
     out = []
     last = None
-    for o in shown:
-        if o.label != last:
-            out.append(build_command(o, transform, n_agents, controller, seq=len(out) + 1))
-            last = o.label
+    for i, o in enumerate(shown):
+        cmd = build_command(o, transform, n_agents, controller, seq=len(out) + 1)
+        if cmd.gesture != last:
+            out.append((i, cmd))
+            last = cmd.gesture
     return out
+
+
+class SwarmClock:
+    """The run's pacing clock (ctl/clock: the slowest live agent's step, published by the launcher).
+
+    A gesture sequence scenario shows frame k from clock step k * frame_steps, so what the swarm sees does
+    not depend on how fast this machine steps. The payload is untrusted: exactly 8 bytes, or ignored."""
+
+    def __init__(self):
+        self.step = 0
+
+    def on_sample(self, sample) -> None:
+        data = sample.payload.to_bytes()
+        if len(data) == 8:
+            step = int.from_bytes(data, "little")
+            if step < 1 << 40:
+                self.step = max(self.step, step)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
+    ap.add_argument("--frame-steps", type=int, default=0,
+                    help="show each frame of a sequence for this many swarm steps (the run's ctl/clock) instead")
     ap.add_argument("--user", default="")
     ap.add_argument("--password", default="")
     args = ap.parse_args(argv)
@@ -63,14 +88,16 @@ def main(argv: list[str] | None = None) -> int:
     if not secret:
         print("fluidswarm coordinator: error: FLUIDSWARM_SECRET (hex) must hold the run's command key", file=sys.stderr)
         return 2
-    if not keys.valid_run_name(args.run) or args.agents < 1 or args.period <= 0:
-        print("fluidswarm coordinator: error: bad --run, --agents or --period", file=sys.stderr)
+    if not keys.valid_run_name(args.run) or args.agents < 1 or args.period <= 0 or args.frame_steps < 0 \
+            or not args.frame_seconds > 0:
+        print("fluidswarm coordinator: error: bad --run, --agents, --period, --frame-steps or --frame-seconds",
+              file=sys.stderr)
         return 2
     from perception.io import InputError
     from perception.segmentation import SegmentationError
 
     try:
-        commands = commands_for_frames(args.input, args.agents, args.controller, args.frame)
+        commands = frame_commands(args.input, args.agents, args.controller, args.frame)
     except (InputError, SegmentationError) as exc:
         print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
         return 1
@@ -81,11 +108,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         pub = session.declare_publisher(keys.command_key(args.run))
         token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
-        payloads = [c.encode(secret) for c in commands]
+        clock = None
+        if args.frame_steps:
+            clock = SwarmClock()
+            session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
         ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
+        payloads = [(first, c.encode(secret)) for first, c in commands]
         tick = 0
         while not stop.is_set():
-            current = payloads[min(tick // ticks_per_frame, len(payloads) - 1)]
+            shown = clock.step // args.frame_steps if clock is not None else tick // ticks_per_frame
+            current = [p for first, p in payloads if first <= shown][-1]
             pub.put(current)
             tick += 1
             stop.wait(args.period)

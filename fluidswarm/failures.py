@@ -19,13 +19,14 @@ class InjectionLog:
     injected: list[str] = field(default_factory=list)
     killed: set[int] = field(default_factory=set)
     frozen: set[int] = field(default_factory=set)
+    joined: list[int] = field(default_factory=list)
 
 
 class FailureInjector:
     def __init__(self, launcher, failures, ids, seed: int, coordinator=None, spawn_late=None):
         self.launcher = launcher
         self.failures = sorted((f for f in failures if f.kind != "drop"), key=lambda f: f.at_step)
-        self.ids = list(ids)
+        self.ids = [int(i) for i in ids]
         self.rng = random.Random(seed)
         self.coordinator = coordinator
         self.spawn_late = spawn_late
@@ -42,7 +43,7 @@ class FailureInjector:
 
     def _victims(self, count: int) -> list[int]:
         pool = [i for i in self.ids if i not in self.log.killed and i not in self.log.frozen]
-        return sorted(self.rng.sample(pool, min(count, len(pool))))
+        return sorted(int(v) for v in self.rng.sample(pool, min(count, len(pool))))
 
     def _run(self) -> None:
         for f in self.failures:
@@ -68,6 +69,7 @@ class FailureInjector:
                 self.log.injected.append(f"step {f.at_step}: SIGKILL coordinator")
             elif f.kind == "late_join" and self.spawn_late is not None:
                 new = self.spawn_late(f.count)
+                self.log.joined += new
                 self.log.injected.append(f"step {f.at_step}: {len(new)} late joiners {new}")
 
 

@@ -39,11 +39,25 @@ class Failure:
 
 @dataclass(frozen=True)
 class PassCriteria:
-    """The run fails (non-zero exit) below these figures."""
+    """The run fails (non-zero exit) when a figure misses its bound (0 / false: not checked).
+
+    min_fidelity_iou     final formation vs target silhouette (fluidswarm/recording/fidelity.py)
+    min_fidelity_inside  share of particles inside the silhouette
+    min_branch_gap       m, edge-branch separation of the branching experiment
+    min_fidelity_ratio   fidelity_iou with the scenario's failures / without them (same seed): `run` then
+                         also runs the scenario without failures first, side by side
+    max_stall_seconds    longest wall-clock gap between two consecutive steps of the swarm
+    min_finished         share of the agents not killed on purpose that finish every step
+    complete_mcap        the MCAP holds every alive agent's state at every step (`replay --check`)
+    """
 
     min_fidelity_iou: float = 0.0
     min_fidelity_inside: float = 0.0
-    min_branch_gap: float = 0.0  # m, for experiments measuring a split
+    min_branch_gap: float = 0.0
+    min_fidelity_ratio: float = 0.0
+    max_stall_seconds: float = 0.0
+    min_finished: float = 0.0
+    complete_mcap: bool = False
 
 
 @dataclass(frozen=True)
@@ -52,12 +66,17 @@ class Scenario:
     path: Path
     experiment: str = "imitate"
     input: str = ""  # image, folder of frames or video; relative to the scenario file or the repo
+    frame: int = -1  # which frame of a clip/folder to imitate (-1: the first; see frame_steps)
+    frame_steps: int = 0  # > 0: a gesture sequence, every frame shown for this many steps (thesis ch. 5)
     controller: str = "region"
     agents: int = 60
     steps: int = 0  # 0: the experiment's default
     dt: float = 0.0  # 0: the experiment's default
     seed: int = 0
     sync: str = "lockstep"
+    async_rate: float = 12.0  # steps/s of each agent's own clock (sync = "async")
+    async_max_age: float = 1.0  # s: older neighbour states are not used (sync = "async")
+    neighbour_timeout: float = 0.0  # s a silent expected neighbour is waited for (0: the experiment's default)
     sph: dict = field(default_factory=dict)
     failures: tuple[Failure, ...] = ()
     passing: PassCriteria = PassCriteria()
@@ -78,6 +97,7 @@ def _typed(file: str, key: str, value, kind):
         int: isinstance(value, int) and not isinstance(value, bool),
         float: isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value),
         str: isinstance(value, str),
+        bool: isinstance(value, bool),
         dict: isinstance(value, dict),
     }[kind]
     if not ok:
@@ -102,12 +122,14 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{file}: not valid TOML ({exc})") from None
-    top = {"name", "description", "experiment", "input", "controller", "agents", "steps", "dt", "seed", "sync",
-           "sph", "failures", "pass"}
+    top = {"name", "description", "experiment", "input", "frame", "frame_steps", "controller", "agents", "steps", "dt",
+           "seed", "sync", "async_rate", "async_max_age", "neighbour_timeout", "sph", "failures", "pass"}
     _check_keys(file, "", raw, top)
     kw: dict = {"name": _typed(file, "name", raw.get("name", path.stem), str), "path": path}
     for key, kind in (("description", str), ("experiment", str), ("input", str), ("controller", str),
-                      ("agents", int), ("steps", int), ("dt", float), ("seed", int), ("sync", str)):
+                      ("agents", int), ("steps", int), ("dt", float), ("seed", int), ("sync", str), ("frame", int),
+                      ("frame_steps", int), ("async_rate", float), ("async_max_age", float),
+                      ("neighbour_timeout", float)):
         if key in raw:
             kw[key] = _typed(file, key, raw[key], kind)
     if kw.get("experiment", "imitate") not in EXPERIMENTS:
@@ -122,6 +144,17 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: key 'steps': must be >= 0, got {kw['steps']}")
     if kw.get("dt", 0.0) < 0:
         raise UserError(f"{file}: key 'dt': must be > 0, got {kw['dt']}")
+    if kw.get("frame", -1) < -1:
+        raise UserError(f"{file}: key 'frame': must be >= 0 (or -1 for the first), got {kw['frame']}")
+    if kw.get("frame_steps", 0) < 0:
+        raise UserError(f"{file}: key 'frame_steps': must be >= 0, got {kw['frame_steps']}")
+    if kw.get("frame_steps", 0) and kw.get("frame", -1) >= 0:
+        raise UserError(f"{file}: key 'frame_steps': a gesture sequence shows every frame, drop 'frame'")
+    for key in ("async_rate", "async_max_age"):
+        if key in kw and not kw[key] > 0:
+            raise UserError(f"{file}: key '{key}': must be > 0, got {kw[key]}")
+    if kw.get("neighbour_timeout", 0.0) < 0:
+        raise UserError(f"{file}: key 'neighbour_timeout': must be > 0, got {kw['neighbour_timeout']}")
     if kw.get("experiment", "imitate") == "imitate" and not kw.get("input"):
         raise UserError(f"{file}: key 'input': an imitation scenario needs an input image, folder or video")
     sph = _typed(file, "sph", raw.get("sph", {}), dict)
@@ -157,5 +190,10 @@ def load_scenario(path: str | Path) -> Scenario:
     kw["failures"] = tuple(failures)
     passing = _typed(file, "pass", raw.get("pass", {}), dict)
     _check_keys(file, "pass.", passing, {f.name for f in fields(PassCriteria)})
-    kw["passing"] = PassCriteria(**{k: _typed(file, "pass." + k, v, float) for k, v in passing.items()})
+    kinds = {f.name: (bool if f.type in (bool, "bool") else float) for f in fields(PassCriteria)}
+    crit = {k: _typed(file, "pass." + k, v, kinds[k]) for k, v in passing.items()}
+    for k, v in crit.items():
+        if kinds[k] is float and v < 0:
+            raise UserError(f"{file}: key 'pass.{k}': must be >= 0, got {v}")
+    kw["passing"] = PassCriteria(**crit)
     return Scenario(**kw)

@@ -41,6 +41,9 @@ class Recorder:
         self.pending: dict[int, dict[int, tuple]] = {}
         self.alive: set[int] = set()
         self.stopped: set[int] = set()  # alive but not reporting (frozen): waiting for them is pointless
+        # Late joiners: alive after the run began; they start at the step of their first state (they adopt
+        # the swarm's step when they hear it), so the recorder expects them only from then on.
+        self.joining: set[int] = set()
         self.last_step: dict[int, int] = {}
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
@@ -76,6 +79,11 @@ class Recorder:
             j, step, cls, values = decoded
             if step < self.next_step or step > self.newest + 100000:
                 return  # already written (a late straggler) or absurd
+            if j in self.joining:
+                self.joining.discard(j)
+                self.alive.add(j)
+                self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} joined at step {step}",
+                                        kind="started", agent=j, step=step)
             if step not in self.pending:
                 self.first_seen[step] = time.monotonic()
             self.pending.setdefault(step, {})[j] = (cls, values)
@@ -91,10 +99,14 @@ class Recorder:
             if j is None:
                 return
             if up:
-                if j not in self.alive:
+                if j not in self.alive and self.newest >= 0 and j not in self.last_step:
+                    self.joining.add(j)
+                elif j not in self.alive:
                     self.alive.add(j)
                     self.writer.write_event(self.t(self.next_step), "info", f"agent/{j}", f"agent {j} started",
                                             kind="started", agent=j, step=self.next_step if self.newest >= 0 else 0)
+            elif j in self.joining:
+                self.joining.discard(j)
             elif j in self.alive:
                 self.alive.discard(j)
                 self.stopped.discard(j)
