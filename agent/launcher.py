@@ -381,7 +381,7 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
         launcher.track_progress()
         everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
-        launcher.wait_alive(everyone, startup_timeout or 30.0 + 0.3 * len(everyone))
+        launcher.wait_alive(everyone, startup_timeout or 60.0 + 0.5 * len(everyone))
         startup = time.monotonic() - t0
         t1 = time.monotonic()
         launcher.start()

@@ -116,6 +116,17 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
     assert int(f["failures_injected"]) == len([x for x in sc.failures if x.kind != "drop"])
     pictures = [ln.split("=", 1)[1] for ln in r.stdout.splitlines() if ln.startswith("picture=")]
     assert any(p.endswith(".gif") for p in pictures) and all(Path(p).exists() for p in pictures)
+    if sc.frame_steps:
+        # a gesture sequence: the recorded commands change gesture (next seq) once the swarm's clock has
+        # passed frame_steps, not before
+        from fluidswarm.recording.reader import load_run
+
+        run = load_run(f["mcap"], images=False)
+        dt = run.metadata["params"]["dt"]
+        seqs = [(t, m["body"]["seq"], m["body"]["gesture"]) for t, m in run.commands]
+        assert len({s for _t, s, _g in seqs}) == 2 and len({g for _t, _s, g in seqs}) == 2, seqs[:3] + seqs[-3:]
+        switch = min(t for t, s, _g in seqs if s == 2)
+        assert switch >= (sc.frame_steps - 5) * dt, f"command 2 recorded at {switch:.2f} s, frame 2 is due at step {sc.frame_steps}"
     check = EXTRA_CHECKS.get(sc.name)
     if check is not None:
         assert check(f), f"{sc.name}: robustness figures not met:\n{r.stdout}"
