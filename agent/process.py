@@ -92,7 +92,7 @@ class Agent:
         self.stop_requested = False
         self.rng = random.Random(spec.id)
         self.counters = {"msgs_received": 0, "neighbours": 0, "rejected": defaultdict(int), "timeouts": 0,
-                         "deaths_seen": 0, "stale": 0, "dropped_out": 0}
+                         "deaths_seen": 0, "stale": 0, "dropped_out": 0, "lost": 0}
         self.subscribers: dict[tuple[int, int], object] = {}
         self.step_started_at: float | None = None
         self.step_ended_at: float | None = None
@@ -248,8 +248,13 @@ class Agent:
         deadline = time.monotonic() + self.spec.timeout
         have = self.buffer[self.step]
         while True:
-            missing = [j for j in expected if j not in have and j not in self.dead]
+            # A neighbour already heard at a later step has moved on: its state of this step was lost
+            # (messages of one publisher arrive in order), so waiting for it would only cost the timeout.
+            missing = [j for j in expected if j not in have and j not in self.dead
+                       and not self.latest.get(j, (-1,))[0] > self.step]
             if not missing:
+                lost = [j for j in expected if j not in have and j not in self.dead]
+                self.counters["lost"] += len(lost)
                 return
             left = deadline - time.monotonic()
             if left <= 0:
@@ -403,7 +408,7 @@ class Agent:
             "id": self.spec.id, "status": status, "steps": self.step, "state": [float(v) for v in self.state],
             "msgs_received": c["msgs_received"], "neighbours": c["neighbours"], "rejected": dict(c["rejected"]),
             "timeouts": c["timeouts"], "deaths_seen": c["deaths_seen"], "stale": c["stale"],
-            "dropped_out": c["dropped_out"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
+            "dropped_out": c["dropped_out"], "lost": c["lost"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
             "session_opened_at": getattr(self, "session_opened_at", None),
             "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
             "cpu_seconds": time.process_time(),
