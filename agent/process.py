@@ -246,6 +246,7 @@ class Agent:
 
     def _wait_for(self, expected: set[int]) -> None:
         deadline = time.monotonic() + self.spec.timeout
+        resend_at = time.monotonic() + self.spec.timeout / 4
         have = self.buffer[self.step]
         while True:
             # A neighbour already heard at a later step has moved on: its state of this step was lost
@@ -256,14 +257,20 @@ class Agent:
                 lost = [j for j in expected if j not in have and j not in self.dead]
                 self.counters["lost"] += len(lost)
                 return
-            left = deadline - time.monotonic()
+            now = time.monotonic()
+            if now >= resend_at:
+                # Lossy links: say it again while waiting (a neighbour that missed our state of this step
+                # is waiting too). Spaced at timeout/4 so a merely slow swarm is not flooded.
+                self._publish()
+                resend_at = now + self.spec.timeout / 4
+            left = deadline - now
             if left <= 0:
                 for j in missing:  # silent too long: frozen, partitioned, or dropping messages
                     self.latest.pop(j, None)
                     self.counters["timeouts"] += 1
                 self._event("neighbour_timeout", neighbours=sorted(missing))
                 return
-            self._drain(min(left, 0.25))
+            self._drain(min(left, resend_at - now, 0.25))
 
     def run(self) -> int:
         spec = self.spec
