@@ -61,6 +61,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"fluidswarm {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except (TimeoutError, RuntimeError) as exc:  # the swarm did not start or finish in time (launcher)
+        print(f"fluidswarm {args.command}: error: swarm: {exc}", file=sys.stderr)
+        return 1
     except BrokenPipeError:  # output piped into `head` and closed early
         return 0
     except KeyboardInterrupt:
