@@ -389,8 +389,12 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
             on_started(launcher)
         launcher.wait_finals(chosen, run_timeout or 60.0 + steps * (0.05 + 0.004 * len(chosen)), progress)
         wall = time.monotonic() - t1
+        # Late joiners (spawned during the run) finish at the same step as the rest: count them too.
+        late = [i for i in list(launcher.swarm.procs) if i not in set(chosen) and i not in set(everyone)]
+        if late:
+            launcher.wait_finals(late, 30.0 + 0.1 * steps)
         with launcher.swarm.changed:
-            finals = {i: launcher.swarm.finals[i] for i in chosen if i in launcher.swarm.finals}
+            finals = {i: launcher.swarm.finals[i] for i in chosen + late if i in launcher.swarm.finals}
             events = list(launcher.swarm.events)
         result = SwarmResult(chosen, finals, events, {}, wall, startup, steps)
         return result

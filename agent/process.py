@@ -11,16 +11,17 @@ a robot with its own control loop and lossy radio would do. Not reproducible, by
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
-import queue
 import random
-import resource
 import signal
+import struct
 import sys
+import threading
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
 
 import numpy as np
 import zenoh
@@ -29,7 +30,10 @@ from agent import keys
 from agent.session import client_config
 from agent.spec import AgentSpec
 from agent.sph.particle import NFIELDS, X, Y, initial_state, interacting, step_particle
-from agent.wire import decode_state, encode_state
+from agent.wire import STATE_SIZE, decode_state, encode_state
+
+_ID_STEP = struct.Struct("<II")  # agent id and step, at offset 4 of a state record (agent/wire.py)
+_NOBODY: frozenset = frozenset()
 
 # A neighbour can be at most one step ahead of an agent it waits for; messages further ahead are kept
 # (another part of the swarm may run ahead) up to this window, beyond it they are rejected as bogus.
@@ -44,6 +48,13 @@ LAG_WAIT_STEPS = 3
 # Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
 CLOCK_LEAD = 3
 EXIT_OK, EXIT_FELL_BEHIND, EXIT_STOPPED, EXIT_NO_START = 0, 3, 4, 5
+
+
+def direct(fn):
+    """Run a callback on Zenoh's own receiving thread. A plain Python callable gets a Python thread of its
+    own per subscriber (zenoh-python's default, indirect=True): ~35 threads per agent, one cell each, and
+    a thread hand-over per message (docs/benchmarks/profile.md)."""
+    return zenoh.handlers.Callback(fn, indirect=False)
 
 
 class Stop(Exception):
@@ -79,7 +90,15 @@ class Agent:
         self.state = initial_state(x, y, vx, vy, p)
         self.controller = controller
         self.static_control = spec.static_control()
-        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
+        # Zenoh's receiving thread appends (kind, data) here and rings the bell only when the main thread
+        # has something to do: a control/liveliness/command message, or the last awaited state of a step.
+        # One wake-up per step instead of one per message (docs/benchmarks/profile.md).
+        self.inbox: deque = deque()
+        self._bell = threading.Lock()
+        self._bell.acquire()
+        self._await_step = -1
+        self._awaited: set[int] | frozenset = _NOBODY  # ids whose _await_step state the main thread waits for
+        self._wake_on_state = False
         self.buffer: dict[int, dict[int, list]] = defaultdict(dict)
         self.latest: dict[int, tuple[int, float, float]] = {}
         self.dead: set[int] = set()
@@ -99,19 +118,41 @@ class Agent:
         self.asynchronous = spec.mode == "async"
         self.fresh: dict[int, tuple[float, list]] = {}  # async: neighbour -> (heard at, latest state)
 
-    # ---- Zenoh callbacks: decode nothing heavy, just enqueue ------------------------------------
+    # ---- Zenoh callbacks (on Zenoh's receiving thread): enqueue, decode nothing, rarely wake -----------
+    def _ring(self) -> None:
+        try:
+            self._bell.release()
+        except RuntimeError:  # already rung
+            pass
+
     def _on_state(self, sample) -> None:
-        self.inbox.put((0, sample.payload.to_bytes()))
+        data = sample.payload.to_bytes()
+        self.inbox.append((0, data))
+        awaited = self._awaited
+        if awaited:
+            # A hint only: the main thread validates the record and recomputes what it still misses. A
+            # later step counts too: that neighbour has moved on (see _wait_for).
+            if len(data) == STATE_SIZE:
+                j, step = _ID_STEP.unpack_from(data, 4)
+                if j in awaited and step >= self._await_step:
+                    awaited.discard(j)
+                    if not awaited:
+                        self._ring()
+        elif self._wake_on_state:
+            self._ring()
 
     def _on_alive(self, sample) -> None:
         if sample.kind == zenoh.SampleKind.DELETE:
-            self.inbox.put((1, str(sample.key_expr)))
+            self.inbox.append((1, str(sample.key_expr)))
+            self._ring()
 
     def _on_ctl(self, sample) -> None:
-        self.inbox.put((2, (str(sample.key_expr), sample.payload.to_bytes())))
+        self.inbox.append((2, (str(sample.key_expr), sample.payload.to_bytes())))
+        self._ring()
 
     def _on_command(self, sample) -> None:
-        self.inbox.put((3, sample.payload.to_bytes()))
+        self.inbox.append((3, sample.payload.to_bytes()))
+        self._ring()
 
     # ---- message handling ----------------------------------------------------------------------
     def _handle(self, item) -> None:
@@ -186,7 +227,7 @@ class Agent:
                 self.subscribers.pop(c).undeclare()
         for c in want:
             if c not in self.subscribers:
-                self.subscribers[c] = self.session.declare_subscriber(keys.state_cell_expr(self.spec.run, *c), self._on_state)
+                self.subscribers[c] = self.session.declare_subscriber(keys.state_cell_expr(self.spec.run, *c), direct(self._on_state))
 
     # ---- the run -------------------------------------------------------------------------------
     def _event(self, what: str, **fields) -> None:
@@ -194,18 +235,17 @@ class Agent:
         self.session.put(keys.event_key(self.spec.run, self.spec.id), json.dumps(msg))
 
     def _drain(self, timeout: float) -> bool:
-        """Handle queued messages; block up to `timeout` for the first. False if nothing came."""
-        try:
-            item = self.inbox.get(timeout=timeout) if timeout > 0 else self.inbox.get_nowait()
-        except queue.Empty:
+        """Handle queued messages. With none queued, sleep up to `timeout` or until a callback rings (states
+        ring only for the last awaited one, see _wait_for). False if nothing was handled."""
+        inbox = self.inbox
+        if not inbox and timeout > 0:
+            self._bell.acquire(timeout=timeout)
+        if not inbox:
             return False
-        self._handle(item)
-        while True:
-            try:
-                item = self.inbox.get_nowait()
-            except queue.Empty:
-                return True
-            self._handle(item)
+        pop, handle = inbox.popleft, self._handle
+        while inbox:
+            handle(pop())
+        return True
 
     def _discover_initial_neighbours(self) -> None:
         """Step-0 neighbours: the agents whose *born* token lies in a cell we watch (liveliness query)."""
@@ -225,14 +265,20 @@ class Agent:
         out = set()
         recent = self.step - 1
         now = time.monotonic()
+        stale = []
         for j, (s, jx, jy) in self.latest.items():
             if math.isnan(jx):
                 out.add(j)
+            elif s < recent - LAG_WAIT_STEPS:
+                stale.append(j)  # never expected again unless heard again (which records it anew)
             elif (jx - x) ** 2 + (jy - y) ** 2 <= r2:
                 # Heard at the previous step: a neighbour in step. Heard lately at an older step: a
                 # lagging group we must let catch up. Otherwise the sighting is stale (it moved away).
-                if s >= recent or (s >= recent - LAG_WAIT_STEPS and now - self.heard_at.get(j, 0.0) < self.spec.timeout):
+                if s >= recent or now - self.heard_at.get(j, 0.0) < self.spec.timeout:
                     out.add(j)
+        for j in stale:  # keep this loop proportional to the neighbourhood, not to everyone ever heard
+            del self.latest[j]
+            self.heard_at.pop(j, None)
         return out
 
     def _publish(self) -> None:
@@ -245,14 +291,21 @@ class Agent:
                          encode_state(self.spec.id, self.step, self.state, cls))
 
     def _wait_for(self, expected: set[int]) -> None:
+        try:
+            self._wait_for_states(expected)
+        finally:
+            self._awaited = _NOBODY
+
+    def _wait_for_states(self, expected: set[int]) -> None:
         deadline = time.monotonic() + self.spec.timeout
         resend_at = time.monotonic() + self.spec.timeout / 4
         have = self.buffer[self.step]
         while True:
+            self._drain(0)
             # A neighbour already heard at a later step has moved on: its state of this step was lost
             # (messages of one publisher arrive in order), so waiting for it would only cost the timeout.
-            missing = [j for j in expected if j not in have and j not in self.dead
-                       and not self.latest.get(j, (-1,))[0] > self.step]
+            missing = {j for j in expected if j not in have and j not in self.dead
+                       and not self.latest.get(j, (-1,))[0] > self.step}
             if not missing:
                 lost = [j for j in expected if j not in have and j not in self.dead]
                 self.counters["lost"] += len(lost)
@@ -270,7 +323,13 @@ class Agent:
                     self.counters["timeouts"] += 1
                 self._event("neighbour_timeout", neighbours=sorted(missing))
                 return
-            self._drain(min(left, resend_at - now, 0.25))
+            # Arm the bell: the receiving thread rings when the last of `missing` has been heard. The step is
+            # set before the set, and whatever was queued before arming is handled first (loop again).
+            self._await_step = self.step
+            self._awaited = missing
+            if self.inbox:
+                continue
+            self._bell.acquire(timeout=min(left, resend_at - now, 0.25))
 
     def run(self) -> int:
         spec = self.spec
@@ -281,15 +340,26 @@ class Agent:
         finally:
             for sub in self.subscribers.values():
                 sub.undeclare()
+            self._flush()
             self.session.close()
+
+    def _flush(self) -> None:
+        """Make sure what we put last (the final report) has left: Zenoh's close does not wait for the send
+        queue, and with nothing else to do at exit the report was sometimes lost. A query to the router travels
+        behind it on the same link, so its answer means the router has the report."""
+        try:
+            for _ in self.session.liveliness().get(keys.alive_key(self.spec.run, self.spec.id), timeout=1.0):
+                pass
+        except Exception:  # the router is gone: nobody left to read the report anyway
+            pass
 
     def _run(self) -> int:
         spec, run = self.spec, self.spec.run
         s = self.session
-        s.declare_subscriber(keys.ctl_expr(run), self._on_ctl)
-        s.liveliness().declare_subscriber(keys.alive_expr(run), self._on_alive)
+        s.declare_subscriber(keys.ctl_expr(run), direct(self._on_ctl))
+        s.liveliness().declare_subscriber(keys.alive_expr(run), direct(self._on_alive))
         if self.controller is not None:
-            s.declare_subscriber(keys.command_key(run), self._on_command)
+            s.declare_subscriber(keys.command_key(run), direct(self._on_command))
         self._update_subscriptions()
         if self.controller is not None and not spec.join:
             # Ready only once the gesture command is known, so every agent applies it from step 0.
@@ -314,7 +384,12 @@ class Agent:
                     self._drain(0.25)
                 self._discover_initial_neighbours()
             self._event("started")
+            # Everything allocated so far (modules, numpy, zenoh) lives as long as the process: move it out of
+            # the collector's sight, so the collections the message handling triggers stay cheap.
+            gc.collect()
+            gc.freeze()
             self.step_started_at = time.time()
+            self.cpu_at_start = time.process_time()
             self.last_step_done = time.monotonic()
             (self._run_async if self.asynchronous else self._run_lockstep)()
             self.step_ended_at = time.time()
@@ -392,13 +467,21 @@ class Agent:
     def _join(self) -> None:
         """A late joiner adopts the step of the first states it hears around it (docs/protocol.md)."""
         deadline = time.monotonic() + self.spec.start_timeout
+        self._wake_on_state = True
+        try:
+            self._await_first_state(deadline)
+        finally:
+            self._wake_on_state = False
+
+    def _await_first_state(self, deadline: float) -> None:
         while True:
-            try:
-                item = self.inbox.get(timeout=0.25)
-            except queue.Empty:
-                if time.monotonic() > deadline:
-                    raise Stop()
-                continue
+            if not self.inbox:
+                self._bell.acquire(timeout=0.25)
+                if not self.inbox:
+                    if time.monotonic() > deadline:
+                        raise Stop()
+                    continue
+            item = self.inbox.popleft()
             if item[0] == 0:
                 decoded, _ = decode_state(item[1])
                 if decoded is not None and decoded[0] != self.spec.id:
@@ -417,12 +500,28 @@ class Agent:
             "timeouts": c["timeouts"], "deaths_seen": c["deaths_seen"], "stale": c["stale"],
             "dropped_out": c["dropped_out"], "lost": c["lost"], "t_start": self.step_started_at, "t_end": self.step_ended_at,
             "session_opened_at": getattr(self, "session_opened_at", None),
-            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-            "cpu_seconds": time.process_time(),
+            "rss_mb": peak_rss_mb(),
+            "cpu_seconds": time.process_time(), "cpu_seconds_at_start": getattr(self, "cpu_at_start", None),
         }
         if self.controller is not None:
             msg.update(self.controller.report())
         self.session.put(keys.final_key(self.spec.run, self.spec.id), json.dumps(msg))
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory (VmHWM). Not getrusage's ru_maxrss: Linux carries the high-water
+    mark of the forked copy of the parent across exec, so every agent reported at least the launcher's size
+    at spawn time (the first benchmark's 74-143 MB per agent; docs/benchmarks/profile.md)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 class FellBehind(Exception):

@@ -18,7 +18,6 @@ and ranges, and returns None (the caller counts the rejection) instead of raisin
 
 from __future__ import annotations
 
-import math
 import struct
 
 from agent.sph.particle import FROZEN, NFIELDS
@@ -27,6 +26,7 @@ VERSION = 1
 KIND_STATE = 1
 _HEADER = struct.Struct("<BBHIIHH")
 _RECORD = struct.Struct("<BBHIIHH9d")
+_FLAG_VALUE = (0.0, 1.0)  # flags bit 0 (frozen) as the state's FROZEN field
 STATE_SIZE = _RECORD.size  # 88
 MAX_ID = 2**31 - 1
 MAX_ABS = 1e12  # larger magnitudes are garbage, not physics
@@ -43,19 +43,20 @@ def encode_state(agent_id: int, step: int, state, particle_class: int = 0) -> by
 
 
 def decode_state(data: bytes):
-    """(agent_id, step, particle_class, values[10]) or (None, reason) for a malformed record."""
+    """(agent_id, step, particle_class, values) with values a tuple of NFIELDS floats, or (None, reason)."""
     if len(data) != STATE_SIZE:
         return None, REJECT_LENGTH
-    version, kind, flags, agent_id, step, particle_class, _reserved, *values = _RECORD.unpack(data)
+    record = _RECORD.unpack(data)
+    version, kind, flags, agent_id, step, particle_class = record[:6]
     if version != VERSION or kind != KIND_STATE:
         return None, REJECT_VERSION
     if agent_id > MAX_ID or flags > 1:
         return None, REJECT_VALUE
+    values = record[7:]
     for v in values:
-        if not math.isfinite(v) or abs(v) > MAX_ABS:
+        if not -MAX_ABS <= v <= MAX_ABS:  # also false for NaN and infinities
             return None, REJECT_VALUE
     if values[4] <= 0.0:  # a density must be positive
         return None, REJECT_VALUE
-    values.append(float(flags & 1))
-    assert len(values) == NFIELDS
-    return (agent_id, step, particle_class, values), None
+    # A tuple of floats: immutable, and not tracked by the garbage collector.
+    return (agent_id, step, particle_class, values + (_FLAG_VALUE[flags],)), None

@@ -81,11 +81,6 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
                     launcher_hook(launcher, im)
                 res = run_swarm(im.setup, steps, launcher=launcher, on_started=on_started, progress=progress,
                                 per_agent=per_agent, mode=mode, rate=rate, max_age=max_age)
-                late = [i for i in launcher.swarm.procs if i not in res.finals and i >= agents]
-                if late:  # late joiners finish at the same step as the rest; count them in the formation
-                    launcher.wait_finals(late, 30.0 + 0.1 * steps)
-                    with launcher.swarm.changed:
-                        res.finals.update({i: launcher.swarm.finals[i] for i in late if i in launcher.swarm.finals})
             finally:
                 if coord.poll() is None:
                     coord.terminate()

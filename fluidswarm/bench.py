@@ -60,7 +60,10 @@ def lockstep(n: int, steps: int) -> dict:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     done = [r for r in res.finals.values() if r.get("status") == "done"]
     sps = res.steps_per_second()
-    rss = [r.get("rss_mb", 0.0) for r in res.finals.values()]
+    rss = [r.get("rss_mb", 0.0) for r in res.finals.values()]  # each agent's own peak (VmHWM)
+    # CPU of the stepping alone (start-up, imports and session opening excluded), per agent and step.
+    stepping = [(r["cpu_seconds"] - r["cpu_seconds_at_start"]) / r["steps"] for r in done
+                if r.get("cpu_seconds_at_start") is not None and r.get("steps")]
 
     central_steps = min(steps, 60)
     t = time.perf_counter()
@@ -77,6 +80,7 @@ def lockstep(n: int, steps: int) -> dict:
         "msgs_per_agent_step": round(res.msgs_per_agent_step(), 3),
         "neighbours_per_agent": round(res.neighbours_per_agent(), 3),
         "cpu_seconds": round((after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), 2),
+        "cpu_ms_per_agent_step": round(1000 * float(np.mean(stepping)), 3) if stepping else None,
         "rss_mb_per_agent": round(float(np.mean(rss)), 1) if rss else None,
         "rss_mb_total": round(float(np.sum(rss)), 1),
         "centralised_steps_per_second": round(pp_sps, 2),
@@ -146,11 +150,11 @@ def write_outputs(results: dict, out: Path) -> None:
     (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     lines = [f"Measured {results['date']} on {results['machine']['cores']} cores, "
              f"{results['machine']['memory_mb'] // 1024} GiB ({'quick' if results['quick'] else 'full'} run).", "",
-             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results["runs"]:
         lines.append(f"| {r['n']} | {r['steps_per_second']} | {r['wall_seconds']} | {r['startup_seconds']} | {r['msgs_per_agent_step']} | "
-                     f"{r['neighbours_per_agent']} | {r['cpu_seconds']} | {r['rss_mb_per_agent']} | {r['rss_mb_total']} | "
+                     f"{r['neighbours_per_agent']} | {r['cpu_seconds']} | {r.get('cpu_ms_per_agent_step')} | {r['rss_mb_per_agent']} | {r['rss_mb_total']} | "
                      f"{r['centralised_steps_per_second']} | {r['vectorised_steps_per_second']} | {r['decentralisation_ratio']} |")
     lines += ["", f"Step time ~ N^{results['step_time_exponent']} (log-log fit).", "",
               "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in results["gesture_imitation_seconds"].items()),

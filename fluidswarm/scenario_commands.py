@@ -212,7 +212,9 @@ def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSumm
     done = {i: r for i, r in res.finals.items() if r.get("status") == "done"}
     ids = sorted(done)
     pos = np.array([done[i]["state"][:2] for i in ids]) if ids else np.empty((0, 2))
-    classes = setup.classes[np.searchsorted(setup.ids, ids)] if ids else np.empty(0, int)
+    # late joiners take the class of particle 0 (they were given its control)
+    index = {int(i): k for k, i in enumerate(setup.ids)}
+    classes = np.array([setup.classes[index.get(i, 0)] for i in ids], dtype=int)
     summary = RunSummary(sc.name, agents, steps, res.steps_per_second(), len(done), mcap, sync=sc.sync,
                          failures=injector.log.injected)
     if sc.experiment == "branching":
