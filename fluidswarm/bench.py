@@ -23,7 +23,9 @@ from fluidswarm.errors import UserError
 
 FULL_NS = (25, 50, 100, 200, 300)
 QUICK_NS = (9, 16, 25)
-GESTURES = {"scissor": "2", "cylindrical": "0", "pinching": "0"}  # gesture -> sign-digit class of its photo
+# gesture -> sign-digit class of its shipped photo: V, the "C" (fingers curved round a cylinder), the thumb
+# touching the index finger
+GESTURES = {"scissor": "2", "cylindrical": "0", "pinching": "9"}
 
 
 def register(sub) -> None:
@@ -106,20 +108,47 @@ def gesture_image(cls: str) -> Path | None:
     return cands[0] if cands else None
 
 
-def imitation_seconds(agents: int, steps: int | None) -> dict:
+def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict]:
+    """Wall time of `fluidswarm imitate` per gesture (start-up included) and the fidelity it reached."""
     out: dict = {}
+    fid: dict = {}
     for gesture, cls in GESTURES.items():
         image = gesture_image(cls)
         if image is None:
-            out[gesture] = None
+            out[gesture] = fid[gesture] = None
             continue
         cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents),
                "--out", f"out/bench/{gesture}"]
         if steps:
             cmd += ["--steps", str(steps)]
+        print(f"gesture {gesture}: {agents} agents ...", file=sys.stderr, flush=True)
         t = time.perf_counter()
         r = subprocess.run(cmd, capture_output=True, text=True)
         out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
+        iou = [ln.split("=", 1)[1].split()[0] for ln in r.stdout.splitlines() if ln.startswith("fidelity_iou=")]
+        fid[gesture] = float(iou[-1]) if iou else None
+    return out, fid
+
+
+def region_controller_timing() -> dict:
+    """Region controller per video frame: person regions (median background over the clip) + ellipses +
+    the command, on the shipped Weizmann clip; and on one shipped hand photograph."""
+    from coordinator.imitation_setup import build_command
+    from coordinator.observe import observe
+    from coordinator.region import fit_transform
+    from perception.io import load_frames
+
+    inputs = Path(__file__).resolve().parent.parent / "scenarios" / "inputs"
+    out = {}
+    for key, path in (("region_controller_ms_per_video_frame", inputs / "weizmann_wave2_person0.png"),
+                      ("region_controller_ms_per_hand_photo", inputs / "digit2_IMG_1140.JPG")):
+        frames = load_frames(path)
+        t = time.perf_counter()
+        obs = observe(path, frames)
+        transform = fit_transform(obs[0].mask, 60)
+        for o in obs:
+            build_command(o, transform, 60, "region")
+        out[key] = round((time.perf_counter() - t) / len(frames) * 1000, 2)
     return out
 
 
@@ -159,7 +188,10 @@ def write_outputs(results: dict, out: Path) -> None:
     lines += ["", f"Step time ~ N^{results['step_time_exponent']} (log-log fit).", "",
               "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in results["gesture_imitation_seconds"].items()),
               f"(with {results['gesture_agents']} agent processes; thesis Table 6.1: 126-219 s per gesture)", "",
-              f"Eigen-image training: {results['eigen_training_seconds']} s; inference {results.get('eigen_inference_ms')} ms/image."]
+              "Fidelity (iou) of those runs: " + ", ".join(f"{k} {v}" for k, v in results.get("gesture_imitation_fidelity_iou", {}).items()), "",
+              f"Eigen-image training: {results['eigen_training_seconds']} s; inference {results.get('eigen_inference_ms')} ms/image.", "",
+              f"Region controller: {results.get('region_controller_ms_per_video_frame')} ms per video frame (Weizmann clip, "
+              f"person regions + ellipses + command), {results.get('region_controller_ms_per_hand_photo')} ms per hand photograph."]
     (out / "results.md").write_text("\n".join(lines) + "\n")
     import matplotlib
 
@@ -202,8 +234,9 @@ def run(args) -> int:
               f"rss_mb_per_agent={r['rss_mb_per_agent']} decentralisation_ratio={r['decentralisation_ratio']}", flush=True)
         runs.append(r)
     print("gesture imitation ...", file=sys.stderr, flush=True)
-    gestures = imitation_seconds(gesture_agents, 60 if args.quick else None)
+    gestures, gesture_fidelity = imitation_seconds(gesture_agents, 60 if args.quick else None)
     perception = perception_timings()
+    perception.update(region_controller_timing())
     results = {
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "quick": bool(args.quick),
@@ -212,6 +245,7 @@ def run(args) -> int:
         "step_time_exponent": fit_exponent(runs),
         "gesture_agents": gesture_agents,
         "gesture_imitation_seconds": gestures,
+        "gesture_imitation_fidelity_iou": gesture_fidelity,
         **perception,
     }
     write_outputs(results, Path(args.out))
@@ -219,5 +253,6 @@ def run(args) -> int:
     for g, v in gestures.items():
         print(f"gesture_imitation_seconds[{g}]={v}")
     print(f"eigen_training_seconds={results['eigen_training_seconds']}")
+    print(f"region_controller_ms_per_video_frame={results.get('region_controller_ms_per_video_frame')}")
     print(f"results={Path(args.out) / 'results.json'}")
     return 0
