@@ -90,6 +90,8 @@ class CommandFollower:
         self.static = spec.static_control()
         self.command = None
         self.pending = None
+        self._current_payload: bytes | None = None
+        self._replays: set[bytes] = set()
         self.follower: RouteFollower | None = None
         self.particle_class = 0
         self.accepted = 0
@@ -98,13 +100,24 @@ class CommandFollower:
     def offer(self, payload: bytes) -> str | None:
         from coordinator.command import CommandRejected
 
+        # The coordinator republishes the current command every 0.2 s, and a captured old command replayed
+        # is the same bytes again: both are settled without decoding (a flood must not starve the agent).
+        if payload == self._current_payload:
+            return None
+        if payload in self._replays:
+            return "replay"
         try:
             cmd = self._decode(payload, self.secret)
         except CommandRejected as exc:
             return exc.reason
         newest = self.pending or self.command
         if newest is not None and cmd.seq <= newest.seq:
-            return None if cmd.seq == newest.seq and cmd == newest else "replay"
+            if cmd.seq == newest.seq and cmd == newest:
+                return None
+            if len(self._replays) < 64:  # authentic but old: it stays a replay (seq only grows)
+                self._replays.add(bytes(payload))
+            return "replay"
+        self._current_payload = bytes(payload)
         self.pending = cmd
         self.accepted += 1
         if self.first_command_at is None:
