@@ -9,11 +9,13 @@ import zenoh
 
 def client_config(endpoints: list[str], user: str = "", password: str = "") -> zenoh.Config:
     """A client that keeps retrying its router: 200 processes starting at once overwhelm a router's
-    accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms is -1."""
+    accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms lets them retry."""
     conf = zenoh.Config()
     conf.insert_json5("mode", '"client"')
     conf.insert_json5("connect/endpoints", json.dumps(endpoints))
-    conf.insert_json5("connect/timeout_ms", "-1")
+    # Retry for up to 2 minutes, not forever: a process still connecting when its launcher (and router)
+    # died blocks inside zenoh.open, where no signal handler runs, and would be left behind.
+    conf.insert_json5("connect/timeout_ms", "120000")
     conf.insert_json5("scouting/multicast/enabled", "false")
     if user:
         conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
