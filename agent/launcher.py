@@ -271,6 +271,20 @@ class Launcher:
         self.swarm.procs[spec.id] = proc
         return proc
 
+    def spawn_joiners(self, count: int, centre, control: Control, params, steps: int, **extra) -> list[int]:
+        """Start `count` late joiners (ids after every agent so far) around `centre` on a golden-angle
+        spiral, so none starts on top of another; they adopt the swarm's step (docs/protocol.md)."""
+        from agent.sph.particle import initial_state
+
+        start = max(self.swarm.procs, default=-1) + 1
+        for k in range(count):
+            angle = 2.399963 * k
+            x = centre[0] + 0.6 * np.sqrt(k + 1) * np.cos(angle)
+            y = centre[1] + 0.6 * np.sqrt(k + 1) * np.sin(angle)
+            state = initial_state(x, y, 0.0, 0.0, params)
+            self.spawn(self.spec_for(start + k, state, control, params, steps, join=True, **extra))
+        return list(range(start, start + count))
+
     def wait_alive(self, ids, timeout: float) -> None:
         want = set(ids)
         deadline = time.monotonic() + timeout

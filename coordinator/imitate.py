@@ -15,8 +15,6 @@ import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
 from coordinator.imitation_setup import DEFAULT_STEPS, prepare_input
-from agent.sph.params import SPHParams
-from agent.sph.particle import initial_state
 from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
 
@@ -48,12 +46,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     frame = None if sequence else (0 if frame is None else frame)
     im = prepare_input(input_path, agents, controller=controller, frame=frame, sequence=sequence)
     if sph or dt:
-        fields = im.setup.params.as_dict()
-        fields.update(sph or {})
-        if dt:
-            fields["dt"] = dt
-        fields["domain"] = tuple(fields["domain"])
-        im.setup.params = SPHParams(**fields)
+        im.setup.params = im.setup.params.with_overrides(sph or {}, dt)
     mcap = out / f"{name}.mcap"
     with tempfile.TemporaryDirectory() as tmp:
         target = Path(tmp) / "target.npz"
@@ -74,7 +67,10 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
             coord = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                      stderr=subprocess.PIPE, preexec_fn=_die_with_parent)
             launcher.coordinator = coord
-            launcher.spawn_late = lambda count: _spawn_late(launcher, im, steps, count, mode, rate, max_age)
+            first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
+            launcher.spawn_late = lambda count: launcher.spawn_joiners(
+                count, (first.x, first.y), im.setup.controls[0], im.setup.params, steps, mode=mode, rate=rate,
+                max_age=max_age)
             try:
                 launcher.track_progress()
                 if launcher_hook is not None:
@@ -102,19 +98,3 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
                            res.events, coord.returncode)
 
-
-def _spawn_late(launcher: Launcher, im, steps: int, count: int, mode: str, rate: float, max_age: float) -> list[int]:
-    """Start `count` extra agents (ids after the swarm's) at the common first waypoint (palm / torso centre);
-    they adopt the swarm's current step and take a class from their id (agent.route.class_of)."""
-    first = im.command.classes[0].route[0]
-    start = max(launcher.swarm.procs, default=-1) + 1
-    new = []
-    for k in range(count):
-        i = start + k
-        angle = 2.399963 * k  # golden-angle spiral: joiners do not start on top of each other
-        x, y = first.x + 0.6 * np.sqrt(k + 1) * np.cos(angle), first.y + 0.6 * np.sqrt(k + 1) * np.sin(angle)
-        state = initial_state(x, y, 0.0, 0.0, im.setup.params)
-        launcher.spawn(launcher.spec_for(i, state, im.setup.controls[0], im.setup.params, steps, join=True,
-                                         mode=mode, rate=rate, max_age=max_age))
-        new.append(i)
-    return new

@@ -142,18 +142,12 @@ def longest_stall(step_times: dict[int, float]) -> float:
 
 
 def experiment_setup(sc: Scenario, agents: int):
-    from agent.sph.params import SPHParams
     from agent.sph import setups
 
     base = {"branching": setups.branching, "drag": setups.drag}[sc.experiment]
     default = base(agents)
     if sc.sph or sc.dt:
-        fields = default.params.as_dict()
-        fields.update(sc.sph)
-        if sc.dt:
-            fields["dt"] = sc.dt
-        fields["domain"] = tuple(fields["domain"])
-        return base(agents, params=SPHParams(**fields))
+        return base(agents, params=default.params.with_overrides(sc.sph, sc.dt))
     return default
 
 
@@ -175,7 +169,6 @@ def _sync_extra(sc: Scenario) -> dict:
 def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSummary:
     """A physics experiment (branching, drag) through agent processes, recorded, with failures."""
     from agent.launcher import Launcher, run_swarm
-    from agent.sph.particle import initial_state
     from fluidswarm.failures import FailureInjector
 
     setup = experiment_setup(sc, agents)
@@ -191,11 +184,7 @@ def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSumm
         def spawn_late(count: int) -> list[int]:
             # Joiners start at the block's initial centre and adopt the swarm's step (docs/protocol.md).
             centre = setup.states[:, :2].mean(axis=0)
-            start = max(launcher.swarm.procs) + 1
-            for k in range(count):
-                st = initial_state(centre[0] + 0.5 * k, centre[1], 0.0, 0.0, setup.params)
-                launcher.spawn(launcher.spec_for(start + k, st, setup.controls[0], setup.params, steps, join=True, **extra))
-            return list(range(start, start + count))
+            return launcher.spawn_joiners(count, centre, setup.controls[0], setup.params, steps, **extra)
 
         watch["launcher"] = launcher
         launcher.start_recorder(str(mcap), meta, setup.params.dt)

@@ -86,5 +86,14 @@ class SPHParams:
     def with_(self, **changes) -> "SPHParams":
         return replace(self, **changes)
 
+    def with_overrides(self, fields: dict, dt: float = 0.0) -> "SPHParams":
+        """These parameters with a scenario's [sph] table (and dt when > 0) applied, validated again."""
+        changes = dict(fields)
+        if "domain" in changes:
+            changes["domain"] = tuple(changes["domain"])
+        if dt:
+            changes["dt"] = dt
+        return replace(self, **changes)
+
     def as_dict(self) -> dict:
         return asdict(self)
