@@ -1,10 +1,16 @@
-# Two entry points (see README): `make demo` and `make test`. Both create .venv on first use.
+# Two entry points (see README): `make demo` and `make test`. Both create .venv and build the compiled agent
+# (agent/native, Rust, cargo --locked) on first use.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# cargo from PATH, else rustup's default place (a fresh shell may not have ~/.cargo/bin on PATH yet)
+CARGO ?= $(shell command -v cargo 2>/dev/null || echo $(HOME)/.cargo/bin/cargo)
+NATIVE := agent/native
+AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
+AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs)
 
-.PHONY: demo test install clean bench
+.PHONY: demo test install clean bench agent
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -12,16 +18,23 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-install: $(STAMP)
+$(AGENT_BIN): $(AGENT_SRC)
+	$(CARGO) build --release --locked --manifest-path $(NATIVE)/Cargo.toml
+	touch $(AGENT_BIN)
 
-demo: $(STAMP)
+agent: $(AGENT_BIN)
+
+install: $(STAMP) $(AGENT_BIN)
+
+demo: install
 	$(BIN)/fluidswarm demo
 
-test: $(STAMP)
+test: install
+	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
 	$(BIN)/python -m pytest -q tests
 
-bench: $(STAMP)
+bench: install
 	$(BIN)/fluidswarm bench
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info $(NATIVE)/target

@@ -43,9 +43,12 @@ def register(sub) -> None:
 
 
 def _agent(args) -> int:
-    from agent.process import main
+    import os
 
-    return main(["--spec", args.spec])
+    from agent.executable import agent_executable
+
+    program = agent_executable()
+    os.execv(program, [program, "--spec", args.spec])  # the compiled agent replaces this process
 
 
 def parse_ids(text: str, n: int) -> list[int]:

@@ -11,10 +11,12 @@ import ctypes
 import json
 import os
 import secrets
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import uuid
@@ -25,6 +27,7 @@ import numpy as np
 import zenoh
 
 from agent import keys
+from agent.executable import agent_executable
 from agent.session import router_config
 from agent.spec import AgentSpec
 from agent.sph.particle import Control
@@ -34,6 +37,11 @@ _ID_STEP = __import__("struct").Struct("<II")
 _CLOCK = __import__("struct").Struct("<Q")
 
 _PR_SET_PDEATHSIG = 1
+# s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
+# every swarm at ~30 steps/s; the compiled agents run faster than that.
+CLOCK_PERIOD = 0.02
+# How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
+AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
 
 
 def _die_with_parent() -> None:  # runs in the child between fork and exec
@@ -109,14 +117,25 @@ class Launcher:
         self.agent_timeout = agent_timeout
         self.commands = commands  # agents follow signed gesture commands (they wait for the first one)
         self.quiet = quiet
+        self.agent_program = agent_executable()  # the compiled agent (agent/native); fail before any process starts
         self.user, self.password = user, password
+        self._socket_dir = None
         if connect:
             self.endpoint = connect
             from agent.session import client_config
             conf = client_config([connect], user, password)
+            self.agent_endpoint = connect
         else:
             self.endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
-            conf = router_config([self.endpoint], dictionary_file=router_auth_file, user=user, password=password)
+            listeners = [self.endpoint]
+            self.agent_endpoint = self.endpoint
+            if AGENT_LINK == "unix":
+                # The local agents reach the embedded router over a unix socket (measured against TCP
+                # loopback in docs/benchmarks/native.md); other processes and hosts use the TCP endpoint.
+                self._socket_dir = tempfile.mkdtemp(prefix="fluidswarm-")
+                self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
+                listeners.append(self.agent_endpoint)
+            conf = router_config(listeners, dictionary_file=router_auth_file, user=user, password=password)
         self.session = zenoh.open(conf)
         self.swarm = Swarm(self.run, self.endpoint, self.session)
         self._subs = [
@@ -125,6 +144,7 @@ class Launcher:
             self.session.liveliness().declare_subscriber(keys.alive_expr(self.run), self._on_alive, history=True),
         ]
         self.closed = False
+        self.clock_period = CLOCK_PERIOD
         self.step_times: dict[int, float] = {}  # step -> wall time its first state was seen
         self.max_step = -1
 
@@ -135,7 +155,10 @@ class Launcher:
             return
         self._tracking = True
         self.agent_steps: dict[int, tuple[int, float]] = {}
-        self._subs.append(self.session.declare_subscriber(keys.state_all_expr(self.run), self._on_state))
+        # On zenoh's receiving thread (indirect=False): a Python thread hand-over per state message cost the
+        # launcher (which also hosts the router) a large share of a core at N = 300.
+        self._subs.append(self.session.declare_subscriber(keys.state_all_expr(self.run),
+                                                          zenoh.handlers.Callback(self._on_state, indirect=False)))
         self._clock_stop = threading.Event()
         threading.Thread(target=self._clock, daemon=True).start()
 
@@ -154,21 +177,25 @@ class Launcher:
                 self.max_step = step
 
     def _clock(self) -> None:
-        """Publish the slowest live agent's step on ctl/clock every 0.1 s.
+        """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
 
         Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
         swarm and meet it again at a different step; with the clock they stay within CLOCK_LEAD steps.
         Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
         """
         key = keys.ctl_key(self.run, "clock")
-        while not self._clock_stop.wait(0.1):
+        last = None
+        # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
+        # ~30 steps/s (the compiled agents run faster than that).
+        while not self._clock_stop.wait(self.clock_period):
             now = time.monotonic()
             with self.swarm.changed:
                 alive = set(self.swarm.alive)
             steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
-            if steps:
+            if steps and min(steps) != last:
+                last = min(steps)
                 try:
-                    self.session.put(key, _CLOCK.pack(min(steps)))
+                    self.session.put(key, _CLOCK.pack(last))
                 except Exception:  # the session is closing
                     return
 
@@ -254,7 +281,7 @@ class Launcher:
 
         p = params.as_dict()
         p["domain"] = list(p["domain"])
-        return AgentSpec(run=self.run, id=int(agent_id), connect=[self.endpoint], steps=int(steps),
+        return AgentSpec(run=self.run, id=int(agent_id), connect=[self.agent_endpoint], steps=int(steps),
                          initial=[float(v) for v in state[:4]], control=asdict(control), params=p,
                          timeout=self.agent_timeout, user=self.user, password=self.password, **extra)
 
@@ -266,7 +293,7 @@ class Launcher:
         # PR_SET_PDEATHSIG fires when the *thread* that forked exits, so only children forked by the main
         # thread get it; late joiners started from a helper thread rely on close() alone.
         death = _die_with_parent if threading.current_thread() is threading.main_thread() else None
-        proc = subprocess.Popen([sys.executable, "-m", "agent", "--spec", spec.to_json()], env=env,
+        proc = subprocess.Popen([self.agent_program, "--spec", spec.to_json()], env=env,
                                 stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=death)
         self.swarm.procs[spec.id] = proc
         return proc
@@ -354,6 +381,8 @@ class Launcher:
             except Exception:
                 pass
         self.session.close()
+        if self._socket_dir:
+            shutil.rmtree(self._socket_dir, ignore_errors=True)
         return {i: p.returncode for i, p in procs.items()}
 
     def __enter__(self):

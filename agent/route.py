@@ -79,7 +79,9 @@ def followers_for(command, ids) -> list[RouteFollower]:
 
 
 class CommandFollower:
-    """The agent's controller: accepts signed commands, follows its class' route (agent/process.py)."""
+    """The command follower of the agent process (ported to agent/native/src/route.rs): accepts signed commands,
+    follows its class' route. Kept here as the oracle of the shared test vectors (tests/vectors) and the
+    reference drivers."""
 
     def __init__(self, spec):
         from coordinator.command import decode  # the wire format lives with the coordinator

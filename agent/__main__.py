@@ -1,5 +1,0 @@
-import sys
-
-from agent.process import main
-
-sys.exit(main())

@@ -1,0 +1,98 @@
+//! Zenoh key expressions of a run (protocol v1): the same strings as agent/keys.py, documented in
+//! docs/protocol.md.
+
+pub const PREFIX: &str = "fluidswarm";
+
+pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
+    ((x / cell).floor() as i64, (y / cell).floor() as i64)
+}
+
+pub fn state_key(run: &str, c: (i64, i64), id: u32) -> String {
+    format!("{PREFIX}/{run}/state/{}/{}/{id}", c.0, c.1)
+}
+
+pub fn state_cell_expr(run: &str, c: (i64, i64)) -> String {
+    format!("{PREFIX}/{run}/state/{}/{}/*", c.0, c.1)
+}
+
+pub fn alive_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/alive/{id}")
+}
+
+pub fn alive_expr(run: &str) -> String {
+    format!("{PREFIX}/{run}/alive/*")
+}
+
+pub fn born_key(run: &str, c: (i64, i64), id: u32) -> String {
+    format!("{PREFIX}/{run}/born/{}/{}/{id}", c.0, c.1)
+}
+
+pub fn born_cell_expr(run: &str, c: (i64, i64)) -> String {
+    format!("{PREFIX}/{run}/born/{}/{}/*", c.0, c.1)
+}
+
+pub fn ctl_expr(run: &str) -> String {
+    format!("{PREFIX}/{run}/ctl/*")
+}
+
+pub fn final_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/final/{id}")
+}
+
+pub fn event_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/event/{id}")
+}
+
+pub fn command_key(run: &str) -> String {
+    format!("{PREFIX}/{run}/command")
+}
+
+/// The agent id in the last chunk of a key (agent/keys.py: id_from_key): decimal digits, fewer than 10.
+pub fn id_from_key(key: &str) -> Option<u32> {
+    let last = key.rsplit('/').next()?;
+    if !last.is_empty() && last.len() < 10 && last.bytes().all(|b| b.is_ascii_digit()) {
+        last.parse().ok()
+    } else {
+        None
+    }
+}
+
+/// Cells of side `cell` that intersect the disc of `radius` around (x, y) (agent/process.py:
+/// covering_cells): the cells an agent subscribes to.
+pub fn covering_cells(x: f64, y: f64, radius: f64, cell: f64) -> Vec<(i64, i64)> {
+    let cx0 = ((x - radius) / cell).floor() as i64;
+    let cx1 = ((x + radius) / cell).floor() as i64;
+    let cy0 = ((y - radius) / cell).floor() as i64;
+    let cy1 = ((y + radius) / cell).floor() as i64;
+    let mut out = Vec::new();
+    for cx in cx0..=cx1 {
+        let dx = (cx as f64 * cell - x).max(0.0).max(x - (cx + 1) as f64 * cell);
+        for cy in cy0..=cy1 {
+            let dy = (cy as f64 * cell - y).max(0.0).max(y - (cy + 1) as f64 * cell);
+            if dx * dx + dy * dy <= radius * radius {
+                out.push((cx, cy));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_match_the_python_ones() {
+        assert_eq!(state_key("r", (-1, 2), 7), "fluidswarm/r/state/-1/2/7");
+        assert_eq!(id_from_key("fluidswarm/r/alive/12"), Some(12));
+        assert_eq!(id_from_key("fluidswarm/r/alive/x1"), None);
+        assert_eq!(id_from_key("fluidswarm/r/alive/1234567890"), None);
+        assert_eq!(cell_of(-0.5, 1.5, 1.0), (-1, 1));
+    }
+
+    #[test]
+    fn covering_cells_is_a_disc() {
+        let cells = covering_cells(0.5, 0.5, 1.0, 1.0);
+        assert_eq!(cells.len(), 9);
+    }
+}

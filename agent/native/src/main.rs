@@ -1,0 +1,102 @@
+//! `fluidswarm-agent --spec JSON`: one SPH particle as one OS process (docs/protocol.md).
+//!
+//! Exit codes: 0 done, 2 bad spec, 3 fell behind, 4 stopped (ctl/stop, SIGTERM, SIGINT), 5 no start.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use fluidswarm_agent::agent::{Agent, EXIT_STOPPED, STOP};
+use fluidswarm_agent::route::CommandFollower;
+use fluidswarm_agent::session::client_config;
+use fluidswarm_agent::spec::{unhex, AgentSpec};
+use zenoh::Wait;
+
+/// Until the session is open the process has nothing to report: a signal then ends it at once. Inside
+/// `zenoh::open` (which retries its router for up to 2 minutes) no flag would be looked at.
+static SESSION_OPEN: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    if !SESSION_OPEN.load(Ordering::SeqCst) {
+        // SAFETY: _exit is async-signal-safe.
+        unsafe { libc::_exit(EXIT_STOPPED) };
+    }
+    STOP.store(true, Ordering::SeqCst);
+    // A last resort if closing hangs (the router died with the launcher): leave 5 s later regardless.
+    // SAFETY: alarm is async-signal-safe; SIGALRM's handler only calls _exit.
+    unsafe { libc::alarm(5) };
+}
+
+extern "C" fn on_alarm(_: libc::c_int) {
+    // SAFETY: _exit is async-signal-safe.
+    unsafe { libc::_exit(EXIT_STOPPED) };
+}
+
+fn install_signals() {
+    // SAFETY: installing plain C handlers that only touch atomics and call async-signal-safe functions.
+    unsafe {
+        libc::signal(libc::SIGTERM, on_signal as *const () as usize);
+        libc::signal(libc::SIGINT, on_signal as *const () as usize);
+        libc::signal(libc::SIGALRM, on_alarm as *const () as usize);
+        // The launcher sets this too (preexec); set it here as well so any parent's death stops us.
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+        if libc::getppid() == 1 {
+            libc::_exit(EXIT_STOPPED); // the parent died before the line above took effect
+        }
+    }
+}
+
+fn fail(msg: &str) -> ! {
+    eprintln!("fluidswarm agent: error: {msg}");
+    std::process::exit(2)
+}
+
+/// Zenoh's runtimes (app, rx, tx, acc, net) each start threads; FLUIDSWARM_AGENT_RUNTIME picks a layout
+/// for the agent process only (measured in docs/benchmarks; ZENOH_RUNTIME itself would also reach the
+/// launcher's router, which needs its threads).
+fn choose_runtime() {
+    let layout = match std::env::var("FLUIDSWARM_AGENT_RUNTIME").as_deref() {
+        Ok("one") => "(app:(worker_threads:1,max_blocking_threads:1),rx:(handover:app),tx:(handover:app),acc:(handover:app),net:(handover:app))",
+        Ok("two") => "(app:(worker_threads:2,max_blocking_threads:1),rx:(handover:app),tx:(handover:app),acc:(handover:app),net:(handover:app))",
+        Ok("default") => return,
+        // The default: one receiving thread (which also runs our callbacks) and one for the rest.
+        // At N = 300 it ran 1.23x the steps/s of zenoh's own default layout (docs/benchmarks).
+        _ => "(rx:(worker_threads:1),app:(worker_threads:1),acc:(handover:app),net:(handover:app))",
+    };
+    // SAFETY: called first thing in main, before any other thread exists.
+    unsafe { std::env::set_var("ZENOH_RUNTIME", layout) };
+}
+
+fn main() {
+    choose_runtime();
+    install_signals();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let text = match args.as_slice() {
+        [flag, text] if flag == "--spec" => text.clone(),
+        [flag] if flag.starts_with("--spec=") => flag["--spec=".len()..].to_string(),
+        _ => fail("usage: fluidswarm-agent --spec JSON (the agent's start-up parameters, agent/spec.py)"),
+    };
+    let spec = AgentSpec::from_json(&text).unwrap_or_else(|e| fail(&e));
+    let secret_hex = if spec.secret.is_empty() { std::env::var("FLUIDSWARM_SECRET").unwrap_or_default() } else { spec.secret.clone() };
+    let controller = if secret_hex.is_empty() {
+        None
+    } else {
+        let secret = unhex(&secret_hex).unwrap_or_else(|| fail("FLUIDSWARM_SECRET: must be hex"));
+        Some(CommandFollower::new(secret, spec.id, spec.control))
+    };
+    let config = client_config(&spec.connect, &spec.user, &spec.password).unwrap_or_else(|e| fail(&format!("zenoh config: {e}")));
+    let session = match zenoh::open(config).wait() {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("fluidswarm agent {}: cannot reach the router {:?}: {e}", spec.id, spec.connect);
+            std::process::exit(EXIT_STOPPED)
+        }
+    };
+    SESSION_OPEN.store(true, Ordering::SeqCst);
+    if STOP.load(Ordering::SeqCst) {
+        std::process::exit(EXIT_STOPPED);
+    }
+    let mut agent = Agent::new(spec, controller, session.clone());
+    let code = agent.run();
+    drop(agent);
+    let _ = session.close().wait();
+    std::process::exit(code)
+}

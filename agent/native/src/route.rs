@@ -1,0 +1,261 @@
+//! How an agent follows a gesture command, decided locally from its id: a port of agent/route.py.
+//!
+//! The Python module stays the oracle (the reference drivers use it), so the arithmetic here is Python's,
+//! operation for operation: a different rounding could put a particle in another class or make it reach a
+//! waypoint one step earlier than the reference.
+
+use std::collections::HashSet;
+
+use serde_json::{Map, Value};
+
+use crate::command::{self, GestureCommand, Waypoint};
+use crate::sph::{Control, State, X, Y};
+
+/// Largest-remainder split of n particles over the class shares (deterministic).
+pub fn class_counts(n: u64, shares: &[f64]) -> Vec<u64> {
+    let total: f64 = shares.iter().fold(0.0, |acc, s| acc + s); // Python's sum: left to right from 0
+    let exact: Vec<f64> = shares.iter().map(|s| n as f64 * s / total).collect();
+    let mut counts: Vec<u64> = exact.iter().map(|e| e.floor() as u64).collect();
+    let rest = n as i64 - counts.iter().sum::<u64>() as i64;
+    let mut order: Vec<usize> = (0..shares.len()).collect();
+    // sorted by (-(remainder), k): largest remainder first, ties to the lower class
+    order.sort_by(|&a, &b| {
+        let (ra, rb) = (-(exact[a] - counts[a] as f64), -(exact[b] - counts[b] as f64));
+        ra.partial_cmp(&rb).unwrap_or(std::cmp::Ordering::Equal).then(a.cmp(&b))
+    });
+    // Python's order[:rest], a negative rest included (it drops from the end)
+    let take = if rest >= 0 {
+        (rest as usize).min(order.len())
+    } else {
+        order.len().saturating_sub(rest.unsigned_abs() as usize)
+    };
+    for &k in &order[..take] {
+        counts[k] += 1;
+    }
+    counts
+}
+
+/// The class of particle `agent_id`: ids 0..n-1 in order fill class 0, then 1, ...; ids >= n (late
+/// joiners) are spread over the classes with particles, round-robin.
+pub fn class_of(agent_id: u64, n: u64, shares: &[f64]) -> usize {
+    let counts = class_counts(n, shares);
+    if agent_id >= n {
+        let nonzero: Vec<usize> = (0..counts.len()).filter(|&k| counts[k] > 0).collect();
+        // (Python divides by zero here; a validated command always has a class with particles.)
+        return nonzero.get((agent_id % nonzero.len().max(1) as u64) as usize).copied().unwrap_or(0);
+    }
+    let mut edge = 0;
+    for (k, c) in counts.iter().enumerate() {
+        edge += c;
+        if agent_id < edge {
+            return k;
+        }
+    }
+    counts.len().saturating_sub(1)
+}
+
+/// Python's `d ** 2` is the C library's pow(d, 2.0), which rounds differently from d * d for about one
+/// argument in a thousand (glibc 2.36); LLVM would rewrite a literal pow(d, 2.0) into d * d, hence the
+/// opaque exponent.
+fn py_square(d: f64) -> f64 {
+    d.powf(std::hint::black_box(2.0))
+}
+
+/// Waypoint after waypoint: advance when within r of the current one (the last one is kept); switch
+/// beta/mu when a waypoint that names them is reached.
+#[derive(Clone, Debug)]
+pub struct RouteFollower {
+    pub route: Vec<Waypoint>,
+    pub index: usize,
+    pub beta: f64,
+    pub mu: f64,
+    pub push: (f64, f64),
+}
+
+impl RouteFollower {
+    /// `route` must not be empty (a validated command's routes never are).
+    pub fn new(route: Vec<Waypoint>, beta: f64, mu: f64, push: (f64, f64)) -> Self {
+        assert!(!route.is_empty(), "a route has at least one waypoint");
+        RouteFollower { route, index: 0, beta, mu, push }
+    }
+
+    pub fn control(&mut self, x: f64, y: f64) -> Control {
+        loop {
+            let w = &self.route[self.index];
+            let reached = py_square(x - w.x) + py_square(y - w.y) <= w.r * w.r;
+            if !reached {
+                break;
+            }
+            if let Some(beta) = w.beta {
+                self.beta = beta;
+            }
+            if let Some(mu) = w.mu {
+                self.mu = mu;
+            }
+            if self.index + 1 >= self.route.len() {
+                break;
+            }
+            self.index += 1;
+        }
+        let w = &self.route[self.index];
+        Control {
+            wx: w.x,
+            wy: w.y,
+            r: w.r,
+            s: w.s,
+            alpha: w.alpha,
+            beta: self.beta,
+            mu: self.mu,
+            push_x: self.push.0,
+            push_y: self.push.1,
+        }
+    }
+}
+
+/// Authentic but old commands remembered as replays, at most this many.
+const MAX_REPLAYS: usize = 64;
+
+/// The agent's controller: accepts signed commands, follows its class' route.
+pub struct CommandFollower {
+    secret: Vec<u8>,
+    agent_id: u32,
+    static_control: Control,
+    command: Option<GestureCommand>,
+    pending: Option<GestureCommand>,
+    current_payload: Option<Vec<u8>>,
+    replays: HashSet<Vec<u8>>,
+    follower: Option<RouteFollower>,
+    particle_class: u16,
+    accepted: u64,
+    first_command_at: Option<f64>,
+}
+
+impl CommandFollower {
+    pub fn new(secret: Vec<u8>, agent_id: u32, static_control: Control) -> Self {
+        CommandFollower {
+            secret,
+            agent_id,
+            static_control,
+            command: None,
+            pending: None,
+            current_payload: None,
+            replays: HashSet::new(),
+            follower: None,
+            particle_class: 0,
+            accepted: 0,
+            first_command_at: None,
+        }
+    }
+
+    /// None: accepted, or a harmless republication; else the reason it was refused
+    /// ("malformed" | "version" | "signature" | "replay").
+    pub fn offer(&mut self, payload: &[u8], now_unix: f64) -> Option<&'static str> {
+        // The coordinator republishes the current command every 0.2 s, and a captured old command replayed
+        // is the same bytes again: both are settled without decoding (a flood must not starve the agent).
+        if self.current_payload.as_deref() == Some(payload) {
+            return None;
+        }
+        if self.replays.contains(payload) {
+            return Some("replay");
+        }
+        let cmd = match command::decode(payload, &self.secret) {
+            Ok(cmd) => cmd,
+            Err(reason) => return Some(reason),
+        };
+        if let Some(newest) = self.pending.as_ref().or(self.command.as_ref()) {
+            if cmd.seq <= newest.seq {
+                if cmd.seq == newest.seq && cmd == *newest {
+                    return None; // the same command laid out differently
+                }
+                if self.replays.len() < MAX_REPLAYS {
+                    self.replays.insert(payload.to_vec()); // authentic but old: it stays a replay (seq only grows)
+                }
+                return Some("replay");
+            }
+        }
+        self.current_payload = Some(payload.to_vec());
+        self.pending = Some(cmd);
+        self.accepted += 1;
+        self.first_command_at.get_or_insert(now_unix);
+        None
+    }
+
+    pub fn has_command(&self) -> bool {
+        self.pending.is_some() || self.command.is_some()
+    }
+
+    pub fn control(&mut self, state: &State) -> Control {
+        if let Some(cmd) = self.pending.take() {
+            // A new gesture takes effect at the agent's next step.
+            let shares: Vec<f64> = cmd.classes.iter().map(|c| c.share).collect();
+            let k = class_of(u64::from(self.agent_id), cmd.n_agents, &shares);
+            // At most 64 classes (command::MAX_CLASSES), so the class fits the record's u16.
+            self.particle_class = k as u16;
+            self.follower = Some(RouteFollower::new(cmd.classes[k].route.clone(), cmd.beta, cmd.mu, (0.0, 0.0)));
+            self.command = Some(cmd);
+        }
+        match self.follower.as_mut() {
+            Some(f) => f.control(state[X], state[Y]),
+            None => self.static_control,
+        }
+    }
+
+    pub fn particle_class(&self) -> u16 {
+        self.particle_class
+    }
+
+    /// The controller's part of the agent's final report (agent/route.py: CommandFollower.report).
+    pub fn report(&self) -> Map<String, Value> {
+        let mut m = Map::new();
+        m.insert("commands_accepted".into(), self.accepted.into());
+        m.insert("particle_class".into(), self.particle_class.into());
+        m.insert("waypoint_index".into(), self.follower.as_ref().map_or(-1, |f| f.index as i64).into());
+        m.insert("command_seq".into(), self.command.as_ref().map_or(-1, |c| c.seq as i64).into());
+        m.insert("first_command_at".into(), self.first_command_at.map_or(Value::Null, Value::from));
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wp(x: f64, y: f64, r: f64, beta: Option<f64>) -> Waypoint {
+        Waypoint { x, y, r, s: 1.0, alpha: 2.0, beta, mu: None }
+    }
+
+    #[test]
+    fn largest_remainder() {
+        assert_eq!(class_counts(10, &[1.0, 1.0, 1.0]), vec![4, 3, 3]);
+        assert_eq!(class_counts(7, &[0.5, 0.0, 0.5]), vec![4, 0, 3]);
+        assert_eq!(class_of(3, 10, &[1.0, 1.0, 1.0]), 0);
+        assert_eq!(class_of(4, 10, &[1.0, 1.0, 1.0]), 1);
+        assert_eq!(class_of(9, 10, &[1.0, 1.0, 1.0]), 2);
+        // late joiners: round-robin over the classes that have particles
+        assert_eq!(class_of(7, 7, &[0.5, 0.0, 0.5]), 2);
+        assert_eq!(class_of(8, 7, &[0.5, 0.0, 0.5]), 0);
+    }
+
+    #[test]
+    fn follows_the_route() {
+        let mut f =
+            RouteFollower::new(vec![wp(0.0, 0.0, 1.0, Some(5.0)), wp(10.0, 0.0, 1.0, None)], 2.0, 0.0, (0.0, 0.0));
+        let c = f.control(5.0, 5.0);
+        assert_eq!((c.wx, c.beta, f.index), (0.0, 2.0, 0));
+        let c = f.control(0.5, 0.0);
+        assert_eq!((c.wx, c.beta, f.index), (10.0, 5.0, 1));
+        let c = f.control(10.0, 0.0); // the last waypoint is kept
+        assert_eq!((c.wx, f.index), (10.0, 1));
+    }
+
+    #[test]
+    fn static_until_a_command() {
+        let mut cf = CommandFollower::new(vec![1, 2, 3], 0, Control::default());
+        assert!(!cf.has_command());
+        assert_eq!(cf.control(&[0.0; 10]), Control::default());
+        assert_eq!(cf.offer(b"junk", 1.0), Some("malformed"));
+        let r = cf.report();
+        assert_eq!(r["waypoint_index"], -1);
+        assert_eq!(r["first_command_at"], Value::Null);
+    }
+}

@@ -1,0 +1,19 @@
+//! Zenoh client configuration of an agent (agent/session.py: client_config, the same settings).
+
+use zenoh::Config;
+
+pub fn client_config(endpoints: &[String], user: &str, password: &str) -> Result<Config, String> {
+    let mut conf = Config::default();
+    let set = |conf: &mut Config, key: &str, value: String| conf.insert_json5(key, &value).map_err(|e| format!("{key}: {e}"));
+    set(&mut conf, "mode", "\"client\"".into())?;
+    set(&mut conf, "connect/endpoints", serde_json::to_string(endpoints).map_err(|e| e.to_string())?)?;
+    // Retry for up to 2 minutes, not forever: 300 processes starting at once overwhelm a router's accept
+    // queue unless clients retry, but one still connecting when its launcher died must end.
+    set(&mut conf, "connect/timeout_ms", "120000".into())?;
+    set(&mut conf, "scouting/multicast/enabled", "false".into())?;
+    if !user.is_empty() {
+        set(&mut conf, "transport/auth/usrpwd/user", serde_json::Value::from(user).to_string())?;
+        set(&mut conf, "transport/auth/usrpwd/password", serde_json::Value::from(password).to_string())?;
+    }
+    Ok(conf)
+}

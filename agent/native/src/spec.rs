@@ -1,0 +1,281 @@
+//! What one agent process is told at start (`--spec JSON`, written by agent/launcher.py from
+//! agent/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
+
+use crate::sph::{Control, Params};
+use serde_json::{Map, Value};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    Lockstep,
+    Async,
+}
+
+#[derive(Clone, Debug)]
+pub struct AgentSpec {
+    pub run: String,
+    pub id: u32,
+    pub connect: Vec<String>,
+    pub steps: u32,
+    pub initial: [f64; 4],
+    pub control: Control,
+    pub params: Params,
+    pub timeout: f64,
+    pub start_timeout: f64,
+    pub drop_out: f64,
+    pub secret: String,
+    pub join: bool,
+    pub user: String,
+    pub password: String,
+    pub mode: Mode,
+    pub rate: f64,
+    pub max_age: f64,
+}
+
+const FIELDS: &[&str] = &[
+    "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
+    "secret", "join", "user", "password", "mode", "rate", "max_age",
+];
+const PARAM_FIELDS: &[&str] =
+    &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
+const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
+
+fn err<T>(msg: String) -> Result<T, String> {
+    Err(format!("agent spec: {msg}"))
+}
+
+/// A JSON number (not a bool: serde_json keeps them apart), finite.
+fn number(v: &Value) -> Option<f64> {
+    v.as_f64().filter(|x| x.is_finite())
+}
+
+fn only(obj: &Map<String, Value>, allowed: &[&str], prefix: &str) -> Result<(), String> {
+    let mut unknown: Vec<&String> = obj.keys().filter(|k| !allowed.contains(&k.as_str())).collect();
+    unknown.sort();
+    match unknown.first() {
+        Some(k) => err(format!("unknown field {prefix}{k:?}")),
+        None => Ok(()),
+    }
+}
+
+fn positive(obj: &Map<String, Value>, name: &str, default: f64) -> Result<f64, String> {
+    match obj.get(name) {
+        None => Ok(default),
+        Some(v) => match number(v) {
+            Some(x) if x > 0.0 => Ok(x),
+            _ => err(format!("{name} must be > 0, got {v}")),
+        },
+    }
+}
+
+fn string(obj: &Map<String, Value>, name: &str) -> Result<String, String> {
+    match obj.get(name) {
+        None => Ok(String::new()),
+        Some(Value::String(s)) => Ok(s.clone()),
+        Some(v) => err(format!("{name} must be a string, got {v}")),
+    }
+}
+
+fn valid_run_name(run: &str) -> bool {
+    (1..=64).contains(&run.len()) && run.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+}
+
+fn parse_params(v: Option<&Value>) -> Result<Params, String> {
+    let mut p = Params::default();
+    let obj = match v {
+        None => return Ok(p),
+        Some(Value::Object(o)) => o,
+        Some(other) => return err(format!("params must be an object, got {other}")),
+    };
+    only(obj, PARAM_FIELDS, "params.")?;
+    let positive_names = ["h", "mass", "rho0", "gamma", "kappa", "dt", "v_max"];
+    for (name, value) in obj {
+        let slot = match name.as_str() {
+            "h" => &mut p.h,
+            "mass" => &mut p.mass,
+            "rho0" => &mut p.rho0,
+            "gamma" => &mut p.gamma,
+            "beta" => &mut p.beta,
+            "beta_pi" => &mut p.beta_pi,
+            "mu" => &mut p.mu,
+            "kappa" => &mut p.kappa,
+            "dt" => &mut p.dt,
+            "v_max" => &mut p.v_max,
+            "drag" => &mut p.drag,
+            _ => continue,
+        };
+        let x = match number(value) {
+            Some(x) => x,
+            None => return err(format!("params.{name} must be a finite number, got {value}")),
+        };
+        if positive_names.contains(&name.as_str()) && x <= 0.0 {
+            return err(format!("params.{name} must be > 0, got {value}"));
+        }
+        if x < 0.0 {
+            return err(format!("params.{name} must be >= 0, got {value}"));
+        }
+        *slot = x;
+    }
+    if let Some(d) = obj.get("domain") {
+        let values: Option<Vec<f64>> = d.as_array().map(|a| a.iter().filter_map(number).collect());
+        match values {
+            Some(v) if v.len() == 4 && d.as_array().map(|a| a.len()) == Some(4) && v[0] < v[1] && v[2] < v[3] => {
+                p.domain = [v[0], v[1], v[2], v[3]]
+            }
+            _ => return err(format!("params.domain must be [xmin, xmax, ymin, ymax] with xmin < xmax, ymin < ymax, got {d}")),
+        }
+    }
+    if let Some(b) = obj.get("border") {
+        p.reflect = match b.as_str() {
+            Some("reflect") => true,
+            Some("freeze") => false,
+            _ => return err(format!("params.border must be \"freeze\" or \"reflect\", got {b}")),
+        };
+    }
+    Ok(p)
+}
+
+fn parse_control(v: Option<&Value>) -> Result<Control, String> {
+    let mut c = Control::default();
+    let obj = match v {
+        None => return Ok(c),
+        Some(Value::Object(o)) => o,
+        Some(other) => return err(format!("control must be an object, got {other}")),
+    };
+    only(obj, CONTROL_FIELDS, "control.")?;
+    for (name, value) in obj {
+        let x = match number(value) {
+            Some(x) => x,
+            None => return err(format!("control.{name} must be a finite number, got {value}")),
+        };
+        match name.as_str() {
+            "wx" => c.wx = x,
+            "wy" => c.wy = x,
+            "r" => c.r = x,
+            "s" => c.s = x,
+            "alpha" => c.alpha = x,
+            "beta" => c.beta = x,
+            "mu" => c.mu = x,
+            "push_x" => c.push_x = x,
+            "push_y" => c.push_y = x,
+            _ => {}
+        }
+    }
+    Ok(c)
+}
+
+impl AgentSpec {
+    pub fn from_json(text: &str) -> Result<AgentSpec, String> {
+        let raw: Value = match serde_json::from_str(text) {
+            Ok(v) => v,
+            Err(e) => return err(format!("not JSON ({e})")),
+        };
+        let obj = match raw {
+            Value::Object(o) => o,
+            _ => return err("must be a JSON object".into()),
+        };
+        only(&obj, FIELDS, "")?;
+        for required in ["run", "id", "connect", "steps", "initial"] {
+            if !obj.contains_key(required) {
+                return err(format!("missing field {required:?}"));
+            }
+        }
+        let run = match obj.get("run").and_then(|v| v.as_str()) {
+            Some(r) if valid_run_name(r) => r.to_string(),
+            _ => return err(format!("run {} must be 1-64 letters, digits, '-' or '_'", obj["run"])),
+        };
+        let id = match obj["id"].as_u64() {
+            Some(i) if i < (1u64 << 31) => i as u32,
+            _ => return err(format!("id must be an integer in [0, 2^31), got {}", obj["id"])),
+        };
+        let steps = match obj["steps"].as_u64() {
+            Some(s) if s <= u32::MAX as u64 => s as u32,
+            _ => return err(format!("steps must be a non-negative integer, got {}", obj["steps"])),
+        };
+        let initial: Vec<f64> = obj["initial"].as_array().map(|a| a.iter().filter_map(number).collect()).unwrap_or_default();
+        if initial.len() != 4 || obj["initial"].as_array().map(|a| a.len()) != Some(4) {
+            return err(format!("initial must be [x, y, vx, vy] finite numbers, got {}", obj["initial"]));
+        }
+        let connect: Vec<String> = match obj["connect"].as_array() {
+            Some(a) if a.iter().all(|e| e.as_str().is_some_and(|s| !s.is_empty())) => {
+                a.iter().map(|e| e.as_str().unwrap_or_default().to_string()).collect()
+            }
+            _ => return err("connect must be a list of endpoints".into()),
+        };
+        let mode = match obj.get("mode").map(|m| m.as_str()) {
+            None | Some(Some("lockstep")) => Mode::Lockstep,
+            Some(Some("async")) => Mode::Async,
+            _ => return err(format!("mode must be one of ('lockstep', 'async'), got {}", obj["mode"])),
+        };
+        let drop_out = match obj.get("drop_out") {
+            None => 0.0,
+            Some(v) => match number(v) {
+                Some(x) if (0.0..1.0).contains(&x) => x,
+                _ => return err(format!("drop_out must be in [0, 1), got {v}")),
+            },
+        };
+        let join = match obj.get("join") {
+            None => false,
+            Some(Value::Bool(b)) => *b,
+            Some(v) => return err(format!("join must be true or false, got {v}")),
+        };
+        let secret = string(&obj, "secret")?;
+        if secret.len() % 2 != 0 || !secret.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return err("secret must be hex".into());
+        }
+        Ok(AgentSpec {
+            run,
+            id,
+            connect,
+            steps,
+            initial: [initial[0], initial[1], initial[2], initial[3]],
+            control: parse_control(obj.get("control"))?,
+            params: parse_params(obj.get("params"))?,
+            timeout: positive(&obj, "timeout", 2.0)?,
+            start_timeout: positive(&obj, "start_timeout", 120.0)?,
+            drop_out,
+            secret,
+            join,
+            user: string(&obj, "user")?,
+            password: string(&obj, "password")?,
+            mode,
+            rate: positive(&obj, "rate", 12.0)?,
+            max_age: positive(&obj, "max_age", 1.0)?,
+        })
+    }
+}
+
+/// Hex to bytes (the run's command secret); the spec check above guarantees even length and hex digits.
+pub fn unhex(text: &str) -> Option<Vec<u8>> {
+    if text.len() % 2 != 0 {
+        return None;
+    }
+    (0..text.len()).step_by(2).map(|i| u8::from_str_radix(text.get(i..i + 2)?, 16).ok()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"{"run":"r1","id":3,"connect":["tcp/127.0.0.1:7447"],"steps":10,"initial":[1,2,0.5,0],
+        "params":{"h":1.0,"domain":[0,10,0,10],"border":"reflect"},"control":{"alpha":0.5}}"#;
+
+    #[test]
+    fn parses_a_launcher_spec() {
+        let s = AgentSpec::from_json(GOOD).unwrap();
+        assert_eq!(s.id, 3);
+        assert!(s.params.reflect);
+        assert_eq!(s.control.alpha, 0.5);
+        assert_eq!(s.mode, Mode::Lockstep);
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let bad = GOOD.replace("\"h\":1.0", "\"h\":-1");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("params.h"));
+        let bad = GOOD.replace("\"id\":3", "\"id\":-3");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("id"));
+        let bad = GOOD.replace("\"steps\":10", "\"steps\":10,\"bogus\":1");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("bogus"));
+        assert!(AgentSpec::from_json("[").unwrap_err().contains("not JSON"));
+    }
+}

@@ -1,0 +1,219 @@
+//! The Rust codecs against the shared test vectors in tests/vectors/ (made from the Python codecs by
+//! tests/vectors/make_vectors.py; tests/test_vectors.py checks Python against the same files).
+//!
+//! The files are read with the crate's own JSON reader (`command::parse`, which reads floats correctly
+//! rounded, unlike serde_json's default) and then handled as serde_json values; floats compare bit for bit.
+
+use std::path::PathBuf;
+
+use fluidswarm_agent::command::{self, Json};
+use fluidswarm_agent::route::{class_counts, class_of, CommandFollower, RouteFollower};
+use fluidswarm_agent::sph::Control;
+use fluidswarm_agent::wire;
+use serde_json::Value;
+
+fn load(name: &str) -> Value {
+    let path: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "tests", "vectors", name].iter().collect();
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    to_value(&command::parse(&bytes).unwrap_or_else(|| panic!("{name} is not JSON")))
+}
+
+fn to_value(v: &Json) -> Value {
+    match v {
+        Json::Null => Value::Null,
+        Json::Bool(b) => Value::Bool(*b),
+        Json::Int(n) => {
+            let i: i64 = n.digits.parse().expect("vector ints fit i64");
+            Value::from(if n.negative { -i } else { i })
+        }
+        Json::Float(f) => Value::from(*f),
+        Json::Str(s) => Value::String(s.iter().map(|&c| char::from_u32(c).expect("no lone surrogates")).collect()),
+        Json::Array(items) => Value::Array(items.iter().map(to_value).collect()),
+        Json::Object(map) => Value::Object(
+            map.iter().map(|(k, v)| (k.iter().map(|&c| char::from_u32(c).unwrap()).collect(), to_value(v))).collect(),
+        ),
+    }
+}
+
+fn unhex(s: &str) -> Vec<u8> {
+    assert!(s.len().is_multiple_of(2), "odd hex");
+    (0..s.len()).step_by(2).map(|k| u8::from_str_radix(&s[k..k + 2], 16).expect("hex")).collect()
+}
+
+/// An f64 field: the same bits (so -0.0 differs from 0.0); ints in the files stand for their float.
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+fn same_f64(got: f64, want: &Value, what: &str) {
+    assert_eq!(got.to_bits(), f(want).to_bits(), "{what}: got {got:?}, want {want}");
+}
+
+fn opt_f64(got: Option<f64>, want: &Value, what: &str) {
+    match got {
+        None => assert!(want.is_null(), "{what}: got None, want {want}"),
+        Some(x) => same_f64(x, want, what),
+    }
+}
+
+fn control_fields(c: &Control) -> [f64; 9] {
+    [c.wx, c.wy, c.r, c.s, c.alpha, c.beta, c.mu, c.push_x, c.push_y]
+}
+
+fn same_control(c: &Control, want: &Value, what: &str) {
+    let want = want.as_array().unwrap();
+    assert_eq!(want.len(), 9);
+    for (k, (got, w)) in control_fields(c).iter().zip(want).enumerate() {
+        same_f64(*got, w, &format!("{what} field {k}"));
+    }
+}
+
+#[test]
+fn state_records() {
+    for v in load("state_records.json").as_array().unwrap() {
+        let name = v["name"].as_str().unwrap();
+        let data = unhex(v["hex"].as_str().unwrap());
+        let expect = &v["expect"];
+        match wire::decode_state(&data) {
+            Err(reason) => assert_eq!(Some(reason), expect["reject"].as_str(), "{name}"),
+            Ok(rec) => {
+                assert!(expect.get("reject").is_none(), "{name}: accepted, want {expect}");
+                assert_eq!(u64::from(rec.id), expect["id"].as_u64().unwrap(), "{name}");
+                assert_eq!(u64::from(rec.step), expect["step"].as_u64().unwrap(), "{name}");
+                assert_eq!(u64::from(rec.class), expect["class"].as_u64().unwrap(), "{name}");
+                let values = expect["values"].as_array().unwrap();
+                assert_eq!(values.len(), rec.values.len(), "{name}");
+                for (k, (got, want)) in rec.values.iter().zip(values).enumerate() {
+                    same_f64(*got, want, &format!("{name} value {k}"));
+                }
+                assert_eq!(wire::peek_id_step(&data), Some((rec.id, rec.step)), "{name}");
+                if data[14..16] == [0, 0] {
+                    assert_eq!(wire::encode_state(rec.id, rec.step, &rec.values, rec.class)[..], data[..], "{name}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn commands() {
+    let file = load("commands.json");
+    let secret = unhex(file["secret_hex"].as_str().unwrap());
+    let vectors = file["vectors"].as_array().unwrap();
+    assert!(vectors.len() > 100);
+    for v in vectors {
+        let name = v["name"].as_str().unwrap();
+        let expect = &v["expect"];
+        match command::decode(&unhex(v["payload_hex"].as_str().unwrap()), &secret) {
+            Err(reason) => assert_eq!(Some(reason), expect["reject"].as_str(), "{name}"),
+            Ok(cmd) => {
+                assert_eq!(expect["accept"], Value::Bool(true), "{name}: accepted, want {expect}");
+                assert_eq!(cmd.seq, expect["seq"].as_u64().unwrap(), "{name}");
+                assert_eq!(cmd.gesture, expect["gesture"].as_str().unwrap(), "{name}");
+                assert_eq!(cmd.n_agents, expect["n_agents"].as_u64().unwrap(), "{name}");
+                same_f64(cmd.beta, &expect["beta"], name);
+                same_f64(cmd.mu, &expect["mu"], name);
+                let classes = expect["classes"].as_array().unwrap();
+                assert_eq!(cmd.classes.len(), classes.len(), "{name}");
+                for (c, want) in cmd.classes.iter().zip(classes) {
+                    assert_eq!(c.name, want[0].as_str().unwrap(), "{name}");
+                    same_f64(c.share, &want[1], name);
+                    let route = want[2].as_array().unwrap();
+                    assert_eq!(c.route.len(), route.len(), "{name}");
+                    for (w, want) in c.route.iter().zip(route) {
+                        for (k, got) in [w.x, w.y, w.r, w.s, w.alpha].into_iter().enumerate() {
+                            same_f64(got, &want[k], &format!("{name} waypoint field {k}"));
+                        }
+                        opt_f64(w.beta, &want[5], &format!("{name} waypoint beta"));
+                        opt_f64(w.mu, &want[6], &format!("{name} waypoint mu"));
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn command_follower_sequences() {
+    let file = load("command_sequences.json");
+    let secret = unhex(file["secret_hex"].as_str().unwrap());
+    let static_control =
+        Control { wx: 1.0, wy: 2.0, r: 0.5, s: 1.0, alpha: 0.0, beta: 2.0, mu: 0.0, push_x: 0.0, push_y: 0.0 };
+    for seq in file["sequences"].as_array().unwrap() {
+        let id = seq["agent_id"].as_u64().unwrap() as u32;
+        let mut follower = CommandFollower::new(secret.clone(), id, static_control);
+        for (k, step) in seq["steps"].as_array().unwrap().iter().enumerate() {
+            let what = format!("agent {id} step {k}");
+            if let Some(hex) = step.get("offer_hex") {
+                let got = follower.offer(&unhex(hex.as_str().unwrap()), 1e9 + k as f64);
+                assert_eq!(got, step["expect"].as_str(), "{what}");
+                assert_eq!(Value::Bool(follower.has_command()), step["has_command"], "{what}");
+            } else {
+                let mut state = [0.0; 10];
+                state[0] = f(&step["control"][0]);
+                state[1] = f(&step["control"][1]);
+                same_control(&follower.control(&state), &step["expect"], &what);
+                assert_eq!(u64::from(follower.particle_class()), step["particle_class"].as_u64().unwrap(), "{what}");
+                let mut report = follower.report();
+                let first = report.remove("first_command_at").expect("first_command_at");
+                assert_eq!(first.is_null(), report["commands_accepted"] == 0, "{what}");
+                assert_eq!(Value::Object(report), step["report"], "{what}");
+            }
+        }
+    }
+}
+
+#[test]
+fn classes_of_agents() {
+    let file = load("route.json");
+    for case in file["class_of"].as_array().unwrap() {
+        let n = case["n"].as_u64().unwrap();
+        let shares: Vec<f64> = case["shares"].as_array().unwrap().iter().map(f).collect();
+        let counts: Vec<u64> = case["counts"].as_array().unwrap().iter().map(|c| c.as_u64().unwrap()).collect();
+        assert_eq!(class_counts(n, &shares), counts, "n={n} shares={shares:?}");
+        for (id, want) in case["ids"].as_array().unwrap().iter().zip(case["classes"].as_array().unwrap()) {
+            let id = id.as_u64().unwrap();
+            assert_eq!(class_of(id, n, &shares) as u64, want.as_u64().unwrap(), "n={n} id={id}");
+        }
+    }
+}
+
+#[test]
+fn route_followers() {
+    let file = load("route.json");
+    for (k, case) in file["route_follower"].as_array().unwrap().iter().enumerate() {
+        let route = case["route"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| command::Waypoint {
+                x: f(&w[0]),
+                y: f(&w[1]),
+                r: f(&w[2]),
+                s: f(&w[3]),
+                alpha: f(&w[4]),
+                beta: w[5].as_f64(),
+                mu: w[6].as_f64(),
+            })
+            .collect();
+        let mut follower = RouteFollower::new(route, f(&case["beta"]), f(&case["mu"]), (0.0, 0.0));
+        for (j, step) in case["steps"].as_array().unwrap().iter().enumerate() {
+            let what = format!("route {k} step {j}");
+            let c = follower.control(f(&step["position"][0]), f(&step["position"][1]));
+            same_control(&c, &step["control"], &what);
+            assert_eq!(follower.index as u64, step["index"].as_u64().unwrap(), "{what}");
+        }
+    }
+}
+
+#[test]
+fn float_repr() {
+    let file = load("float_repr.json");
+    let cases = file.as_array().unwrap();
+    assert!(cases.len() > 800);
+    for case in cases {
+        let bytes: [u8; 8] = unhex(case[0].as_str().unwrap()).try_into().unwrap();
+        let v = f64::from_le_bytes(bytes);
+        assert_eq!(command::float_repr(v), case[1].as_str().unwrap(), "{v:e}");
+    }
+}

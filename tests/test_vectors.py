@@ -1,0 +1,131 @@
+"""The Python codecs against the shared test vectors in tests/vectors/ (made by tests/vectors/make_vectors.py).
+
+agent/native/tests/vectors.rs checks the compiled agent against the same files, so the two agree on every
+record and command there: what is accepted, the reason for what is not, and the values decoded. Expected
+values are compared through json.dumps, which tells 1 from 1.0 and 0.0 from -0.0.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import struct
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from agent.route import CommandFollower, RouteFollower, class_counts, class_of
+from agent.sph.particle import NFIELDS, Control
+from agent.wire import decode_state, encode_state
+from coordinator.command import CommandRejected, Waypoint, decode
+
+VECTORS = Path(__file__).resolve().parent / "vectors"
+
+
+def load(name: str):
+    return json.loads((VECTORS / name).read_text())
+
+
+def same(a, b) -> bool:
+    return json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+
+
+def lossy(s: str) -> str:
+    return "".join("\ufffd" if 0xD800 <= ord(c) < 0xE000 else c for c in s)
+
+
+@pytest.mark.parametrize("v", load("state_records.json"), ids=lambda v: v["name"])
+def test_state_record(v):
+    data = bytes.fromhex(v["hex"])
+    res, reason = decode_state(data)
+    if "reject" in v["expect"]:
+        assert res is None and reason == v["expect"]["reject"]
+        return
+    agent_id, step, cls, values = res
+    assert same({"id": agent_id, "step": step, "class": cls, "values": list(values)}, v["expect"])
+    if data[14:16] == b"\0\0":  # reserved is written as 0
+        assert encode_state(agent_id, step, values, cls) == data
+
+
+COMMANDS = load("commands.json")
+
+
+@pytest.mark.parametrize("v", COMMANDS["vectors"], ids=lambda v: v["name"])
+def test_command(v):
+    secret = bytes.fromhex(COMMANDS["secret_hex"])
+    try:
+        cmd = decode(bytes.fromhex(v["payload_hex"]), secret)
+    except CommandRejected as exc:
+        assert v["expect"] == {"reject": exc.reason}
+        return
+    got = {"accept": True, "seq": cmd.seq, "gesture": lossy(cmd.gesture), "n_agents": cmd.n_agents,
+           "classes": [[lossy(c.name), c.share, [[w.x, w.y, w.r, w.s, w.alpha, w.beta, w.mu] for w in c.route]]
+                       for c in cmd.classes],
+           "beta": cmd.beta, "mu": cmd.mu}
+    assert same(got, v["expect"])
+
+
+def control_list(c: Control) -> list:
+    return [c.wx, c.wy, c.r, c.s, c.alpha, c.beta, c.mu, c.push_x, c.push_y]
+
+
+SEQUENCES = load("command_sequences.json")
+
+
+@pytest.mark.parametrize("seq", SEQUENCES["sequences"], ids=lambda s: f"agent{s['agent_id']}")
+def test_command_follower(seq):
+    spec = SimpleNamespace(secret=SEQUENCES["secret_hex"], id=seq["agent_id"],
+                           static_control=lambda: Control(1.0, 2.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0))
+    f = CommandFollower(spec)
+    for k, step in enumerate(seq["steps"]):
+        if "offer_hex" in step:
+            assert f.offer(bytes.fromhex(step["offer_hex"])) == step["expect"], k
+            assert f.has_command == step["has_command"], k
+        else:
+            state = np.zeros(NFIELDS)
+            state[0], state[1] = step["control"]
+            assert same(control_list(f.control(state, 0)), step["expect"]), k
+            assert f.particle_class == step["particle_class"]
+            report = f.report()
+            assert (report.pop("first_command_at") is None) == (report["commands_accepted"] == 0)
+            assert report == step["report"], k
+
+
+ROUTE = load("route.json")
+
+
+@pytest.mark.parametrize("case", ROUTE["class_of"], ids=lambda c: f"n{c['n']}_k{len(c['shares'])}")
+def test_class_of(case):
+    assert class_counts(case["n"], case["shares"]) == case["counts"]
+    assert [class_of(i, case["n"], case["shares"]) for i in case["ids"]] == case["classes"]
+
+
+@pytest.mark.parametrize("case", ROUTE["route_follower"], ids=lambda c: f"route{len(c['route'])}")
+def test_route_follower(case):
+    f = RouteFollower([Waypoint(*w) for w in case["route"]], case["beta"], case["mu"])
+    for step in case["steps"]:
+        state = np.zeros(NFIELDS)
+        state[0], state[1] = step["position"]
+        assert same(control_list(f.control(state, 0)), step["control"])
+        assert f.index == step["index"]
+
+
+def test_float_repr():
+    for bits, text in load("float_repr.json"):
+        assert repr(struct.unpack("<d", bytes.fromhex(bits))[0]) == text
+
+
+def test_files_are_current():
+    """The committed files are what the generator makes from today's codecs."""
+    spec = importlib.util.spec_from_file_location("make_vectors", VECTORS / "make_vectors.py")
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    assert same(gen.state_vectors(), load("state_records.json"))
+    vectors = gen.command_vectors()
+    assert same(vectors, COMMANDS["vectors"])
+    payloads = {v["name"]: bytes.fromhex(v["payload_hex"]) for v in vectors}
+    assert same(gen.follower_sequences(payloads), SEQUENCES["sequences"])
+    assert same(gen.route_vectors(), ROUTE)
+    assert same(gen.float_reprs(), load("float_repr.json"))
