@@ -155,10 +155,11 @@ class Launcher:
             return
         self._tracking = True
         self.agent_steps: dict[int, tuple[int, float]] = {}
-        # On zenoh's receiving thread (indirect=False): a Python thread hand-over per state message cost the
-        # launcher (which also hosts the router) a large share of a core at N = 300.
-        self._subs.append(self.session.declare_subscriber(keys.state_all_expr(self.run),
-                                                          zenoh.handlers.Callback(self._on_state, indirect=False)))
+        # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
+        # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
+        # router's receiving threads (N messages per step).
+        self._states = self.session.declare_subscriber(keys.state_all_expr(self.run), zenoh.handlers.RingChannel(1 << 16))
+        self._subs.append(self._states)
         self._clock_stop = threading.Event()
         threading.Thread(target=self._clock, daemon=True).start()
 
@@ -188,6 +189,11 @@ class Launcher:
         # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
         # ~30 steps/s (the compiled agents run faster than that).
         while not self._clock_stop.wait(self.clock_period):
+            try:
+                while (sample := self._states.try_recv()) is not None:
+                    self._on_state(sample)
+            except Exception:  # the session is closing
+                return
             now = time.monotonic()
             with self.swarm.changed:
                 alive = set(self.swarm.alive)
@@ -290,11 +296,16 @@ class Launcher:
         env = dict(os.environ)
         if self.commands:  # the run's command key travels in the environment, never on the bus or argv
             env["FLUIDSWARM_SECRET"] = self.secret
-        # PR_SET_PDEATHSIG fires when the *thread* that forked exits, so only children forked by the main
-        # thread get it; late joiners started from a helper thread rely on close() alone.
-        death = _die_with_parent if threading.current_thread() is threading.main_thread() else None
+        # No preexec_fn: it forces a full fork() of this (large) Python process per agent, which made starting
+        # 300 agents take seconds; without it Python spawns with vfork. The agent asks the kernel for SIGTERM
+        # when its parent dies itself (PR_SET_PDEATHSIG first thing in main.rs, then checks it was not
+        # already orphaned), so none outlives the launcher.
+        # The death signal fires when the *thread* that spawned exits: late joiners started from a helper thread
+        # must not ask for it (they rely on close()).
+        if threading.current_thread() is not threading.main_thread():
+            env["FLUIDSWARM_NO_PDEATHSIG"] = "1"
         proc = subprocess.Popen([self.agent_program, "--spec", spec.to_json()], env=env,
-                                stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=death)
+                                stdout=out, stderr=out, stdin=subprocess.DEVNULL)
         self.swarm.procs[spec.id] = proc
         return proc
 

@@ -27,5 +27,5 @@ def test_bench_quick_writes_every_field(tmp_path):
     assert all(isinstance(v, float) and 0 <= v <= 1 for v in res["gesture_imitation_fidelity_iou"].values())
     for key in ("region_controller_ms_per_video_frame", "region_controller_ms_per_hand_photo"):
         assert isinstance(res[key], float) and res[key] > 0, key
-    # agents report their own peak RSS (VmHWM), a Python + zenoh + numpy process: tens of MB, not the parent's
-    assert all(10 < run["rss_mb_per_agent"] < 200 for run in res["runs"])
+    # agents report their own peak RSS (VmHWM): the compiled agent, a few MB (issue 14: <= 15), not the parent's
+    assert all(1 < run["rss_mb_per_agent"] <= 15 for run in res["runs"])

@@ -62,7 +62,9 @@ def test_split_swarm_reproduces_single_host_result_and_rogue_is_locked_out(hosts
 def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(hosts, tmp_path):
     a, b = hosts.addr[("a", "b")], hosts.addr[("b", "a")]
     mcap = tmp_path / "a.mcap"
-    common = ["launch", "-n", "40", "--steps", "500", "--run", "cut", "--timeout", "1.0"] + hosts.cred
+    # Enough steps that the cut comes mid-run (the compiled agents do 500 steps in well under the 9 s below).
+    steps = 4000
+    common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0"] + hosts.cred
     pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)],
                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"],
@@ -77,7 +79,7 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     assert pa.returncode == 0, err_a
     assert fa["finished"] == "20"
     run = load_run(mcap, images=False)
-    lost = {e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < 500}
+    lost = {e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < steps}
     assert len(lost) >= 10
 
 

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use serde_json::{json, Map, Value};
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
-use zenoh::sample::SampleKind;
+use zenoh::sample::{Locality, SampleKind};
 use zenoh::{Session, Wait};
 
 use crate::keys;
@@ -440,6 +440,8 @@ impl Agent {
                 .declare_publisher(keys::state_key(&self.spec.run, c, self.spec.id))
                 .congestion_control(self.tuning.congestion)
                 .express(self.tuning.express)
+                // Our own cell's subscriber would otherwise get our state back (a local match per put)
+                .allowed_destination(Locality::Remote)
                 .wait()
             {
                 Ok(p) => self.publisher = Some((c, p)),

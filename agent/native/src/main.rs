@@ -36,10 +36,17 @@ fn install_signals() {
         libc::signal(libc::SIGTERM, on_signal as *const () as usize);
         libc::signal(libc::SIGINT, on_signal as *const () as usize);
         libc::signal(libc::SIGALRM, on_alarm as *const () as usize);
-        // The launcher sets this too (preexec); set it here as well so any parent's death stops us.
-        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-        if libc::getppid() == 1 {
-            libc::_exit(EXIT_STOPPED); // the parent died before the line above took effect
+    }
+    // The launcher's death stops us (it spawns without a fork hook, so this is the only place it is asked
+    // for). It is tied to the spawning *thread*: a launcher thread that ends early sets FLUIDSWARM_NO_PDEATHSIG.
+    if std::env::var_os("FLUIDSWARM_NO_PDEATHSIG").is_none() {
+        // SAFETY: prctl/getppid/_exit with plain integer arguments.
+        unsafe {
+            let parent = libc::getppid();
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+            if libc::getppid() != parent || parent == 1 {
+                libc::_exit(EXIT_STOPPED); // the parent died before the line above took effect
+            }
         }
     }
 }
