@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
@@ -42,6 +43,18 @@ def test_verify_command_is_exact_and_local():
     assert float(figures["msgs_per_agent_step"]) <= 3 * float(figures["neighbours_per_agent"])
     assert float(figures["neighbours_per_agent"]) > 4
     assert float(figures["steps_per_second"]) > 0
+
+
+def test_launch_with_default_options_every_agent_finishes_without_republishing_storms():
+    # Issue 14 (c): `launch -n 300 --steps 60` with its defaults finished 91/300 agents with the Python agent
+    # (republishing storms: 91 messages per agent-step for 6 neighbours). The same mechanism at CI size.
+    r = subprocess.run([sys.executable, "-m", "fluidswarm", "launch", "-n", "100", "--steps", "60"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    figures = dict(line.split("=", 1) for line in r.stdout.split() if "=" in line)
+    print(figures)
+    assert figures["finished"] == "100"
+    assert float(figures["msgs_per_agent_step"]) <= 3 * float(figures["neighbours_per_agent"])
 
 
 def rate(step_times, a, b):
@@ -185,3 +198,30 @@ def test_no_process_survives_a_normal_run_or_sigint():
     assert "Traceback" not in launch.stderr.read()
     time.sleep(0.5)
     assert not any(is_running(p) for p in kids)
+
+
+def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
+    from agent.executable import agent_executable
+
+    good = Launcher.__new__(Launcher)  # only spec_for's fields are needed
+    good.run, good.agent_endpoint, good.agent_timeout, good.user, good.password = "r1", "tcp/127.0.0.1:9", 2.0, "", ""
+    setup = spread_block(4)
+    spec = json.loads(good.spec_for(0, setup.states[0], setup.controls[0], setup.params, 10).to_json())
+    cases = {
+        "params.h": {**spec, "params": {**spec["params"], "h": -1.0}},
+        "id": {**spec, "id": -3},
+        "initial": {**spec, "initial": [0.0, "x", 0.0, 0.0]},
+        "mode": {**spec, "mode": "chaos"},
+        "control.beta": {**spec, "control": {**spec["control"], "beta": "stiff"}},
+        "bogus": {**spec, "bogus": 1},
+        "not JSON": None,
+    }
+    for field, bad in cases.items():
+        text = "{not json" if bad is None else json.dumps(bad)
+        r = subprocess.run([agent_executable(), "--spec", text], capture_output=True, text=True, timeout=10)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2, (field, r.returncode, r.stderr)
+        assert len(lines) == 1 and field in lines[0] and "panicked" not in r.stderr, (field, r.stderr)
+    r = subprocess.run([sys.executable, "-m", "fluidswarm", "agent", "--spec", json.dumps(cases["id"])],
+                       capture_output=True, text=True, timeout=10)
+    assert r.returncode == 2 and "id" in r.stderr
