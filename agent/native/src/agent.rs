@@ -321,7 +321,15 @@ impl Agent {
             return Ok(());
         }
         if self.dead.contains(&j) {
-            self.reject("dead");
+            // A state it published while alive is genuine: an agent that finished (or died) just after
+            // publishing its last steps has its liveliness DELETE delivered first (declarations travel at a
+            // higher priority than data), and neighbours still a few steps behind need those states to stay
+            // exact. It is used for its step, but the dead agent is never expected again.
+            if step >= self.step && self.spec.mode == Mode::Lockstep {
+                self.buffer.entry(step).or_default().insert(j, values);
+            } else {
+                self.reject("dead");
+            }
             return Ok(());
         }
         if step as u64 > self.step as u64 + MAX_AHEAD as u64 {
@@ -457,9 +465,16 @@ impl Agent {
 
     // ---- the expected set and the wait -------------------------------------------------------------
     /// Agents whose step-m state this agent must wait for (docs/protocol.md, "Expected agents").
+    ///
+    /// A sighting k steps old (k = m - its step >= 1) can have moved k v_max dt since, so it is expected
+    /// within 2h + (k + 2) v_max dt: R_expect for k = 1, wider for a lagging neighbour. The Python agent used
+    /// R_expect whatever the age, which lost exactness under load (issue 14, defect (a)): a particle up to
+    /// CLOCK_LEAD steps ahead of its group judged a neighbour by a sighting 3-4 steps old, did not wait for
+    /// it, and the neighbour then reached its support at that step.
     fn expected(&mut self) -> HashSet<u32> {
         let (x, y) = (self.state[X], self.state[Y]);
-        let r2 = self.r_expect * self.r_expect;
+        let d = self.params.max_step_displacement();
+        let base = self.r_expect - 3.0 * d; // the support 2h
         let recent = self.step as i64 - 1;
         let mut out = HashSet::new();
         let mut stale = Vec::new();
@@ -468,7 +483,10 @@ impl Agent {
                 out.insert(j);
             } else if s < recent - LAG_WAIT_STEPS {
                 stale.push(j); // never expected again unless heard again
-            } else if (jx - x) * (jx - x) + (jy - y) * (jy - y) <= r2 {
+            } else if (jx - x) * (jx - x) + (jy - y) * (jy - y) <= {
+                let r = base + ((self.step as i64 - s).max(1) + 2) as f64 * d;
+                r * r
+            } {
                 // Heard at the previous step: in step. Heard lately at an older step: a lagging group we
                 // let catch up. Otherwise the sighting is stale (it moved away).
                 let lately = self.heard_at.get(&j).is_some_and(|t| t.elapsed().as_secs_f64() < self.spec.timeout);
