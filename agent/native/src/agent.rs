@@ -431,7 +431,13 @@ impl Agent {
         if let Value::Object(extra) = fields {
             msg.extend(extra);
         }
-        let _ = self.session.put(keys::event_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string()).wait();
+        // Block, not the default Drop: events and the final report are few and must not be lost under load
+        // (the recorder's MCAP and the launcher's tally depend on them).
+        let _ = self
+            .session
+            .put(keys::event_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .congestion_control(CongestionControl::Block)
+            .wait();
     }
 
     fn publish(&mut self) {
@@ -899,6 +905,10 @@ impl Agent {
         if let Some(ctl) = &self.controller {
             msg.extend(ctl.report());
         }
-        let _ = self.session.put(keys::final_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string()).wait();
+        let _ = self
+            .session
+            .put(keys::final_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .congestion_control(CongestionControl::Block)
+            .wait();
     }
 }
