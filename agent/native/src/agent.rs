@@ -79,16 +79,9 @@ struct Shared {
 }
 
 impl Shared {
-    fn push(&self, msg: Msg, ring: bool) {
-        let mut inbox = self.inbox.lock().unwrap_or_else(|e| e.into_inner());
-        inbox.queue.push_back(msg);
-        if ring {
-            inbox.rung = true;
-            self.bell.notify_one();
-        }
-    }
-
-    fn push_ctl(&self, msg: Msg, is_clock: bool) {
+    /// Queue a control, liveliness or command message. Clock ticks come at 50 Hz: they wake the main thread
+    /// only while it waits for the clock (`wake_on_clock`); everything else always wakes it.
+    fn push(&self, msg: Msg, is_clock: bool) {
         let mut inbox = self.inbox.lock().unwrap_or_else(|e| e.into_inner());
         inbox.queue.push_back(msg);
         if !is_clock || inbox.wake_on_clock {
@@ -175,7 +168,6 @@ pub struct Agent {
     spec: AgentSpec,
     params: sph::Params,
     cell: f64,
-    r_expect: f64,
     r_sub: f64,
     r_keep: f64,
     state: State,
@@ -222,7 +214,6 @@ impl Agent {
         Agent {
             tuning: Tuning::from_env(),
             cell,
-            r_expect: params.support() + 3.0 * d,
             r_sub,
             r_keep: r_sub + 0.5 * cell,
             params,
@@ -480,7 +471,7 @@ impl Agent {
     fn expected(&mut self) -> HashSet<u32> {
         let (x, y) = (self.state[X], self.state[Y]);
         let d = self.params.max_step_displacement();
-        let base = self.r_expect - 3.0 * d; // the support 2h
+        let base = self.params.support();
         let recent = self.step as i64 - 1;
         let mut out = HashSet::new();
         let mut stale = Vec::new();
@@ -626,9 +617,8 @@ impl Agent {
             .declare_subscriber(keys::ctl_expr(&run))
             .callback(move |s| {
                 let key = s.key_expr().as_str().to_string();
-                // The clock ticks often (50 Hz): it wakes the main thread only while it waits for it.
                 let is_clock = key.ends_with("/clock");
-                shared.push_ctl(Msg::Ctl(key, s.payload().to_bytes().into_owned()), is_clock)
+                shared.push(Msg::Ctl(key, s.payload().to_bytes().into_owned()), is_clock)
             })
             .wait()
             .map_err(zerr)?;
@@ -640,7 +630,7 @@ impl Agent {
             .callback(move |s| {
                 if s.kind() == SampleKind::Delete {
                     if let Some(j) = keys::id_from_key(s.key_expr().as_str()) {
-                        shared.push(Msg::Gone(j), true);
+                        shared.push(Msg::Gone(j), false);
                     }
                 }
             })
@@ -653,7 +643,7 @@ impl Agent {
             let cmd = self
                 .session
                 .declare_subscriber(keys::command_key(&run))
-                .callback(move |s| shared.push(Msg::Command(s.payload().to_bytes().into_owned()), true))
+                .callback(move |s| shared.push(Msg::Command(s.payload().to_bytes().into_owned()), false))
                 .wait()
                 .map_err(zerr)?;
             self._fixed.push(cmd);
