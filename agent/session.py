@@ -23,6 +23,10 @@ def client_config(endpoints: list[str], user: str = "", password: str = "") -> z
     return conf
 
 
+MAX_SESSIONS = 20000
+ACCEPT_PENDING = 2000
+
+
 def router_config(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
                   user: str = "", password: str = "") -> zenoh.Config:
     """An in-process router (mode "router"): no external daemon needed."""
@@ -31,6 +35,10 @@ def router_config(listen: list[str], connect: list[str] | None = None, dictionar
     conf.insert_json5("listen/endpoints", json.dumps(listen))
     conf.insert_json5("connect/endpoints", json.dumps(connect or []))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # zenoh's defaults (1000 sessions, 100 handshakes pending) cap a swarm below 1000 agents: every agent,
+    # the recorder and the coordinator are sessions of this router, and they all connect at once.
+    conf.insert_json5("transport/unicast/max_sessions", str(MAX_SESSIONS))
+    conf.insert_json5("transport/unicast/accept_pending", str(ACCEPT_PENDING))
     if dictionary_file:
         conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(dictionary_file))
         if user:
