@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from agent.fill import inside, nearest_point
 from agent.sph.particle import X, Y, Control
 
 
@@ -68,14 +69,34 @@ class RouteFollower:
         return Control(w.x, w.y, w.r, w.s, w.alpha, self.beta, self.mu, *self.push)
 
 
-def followers_for(command, ids) -> list[RouteFollower]:
+class FillFollower:
+    """The fill law (agent/fill.py): no body force inside the shape, eq. 6.2 towards the nearest boundary
+    point outside it (r = 0, so the pull fades to nothing on the boundary)."""
+
+    def __init__(self, fill, beta: float, mu: float):
+        self.rings, self.alpha, self.s = fill.rings, fill.alpha, fill.s
+        self.beta, self.mu = beta, mu
+        self.index = 0  # no waypoints: reported as waypoint 0
+
+    def control(self, state: np.ndarray, step: int) -> Control:
+        x, y = state[X], state[Y]
+        if inside(self.rings, x, y):
+            return Control(x, y, 0.0, self.s, 0.0, self.beta, self.mu)
+        px, py = nearest_point(self.rings, x, y)
+        return Control(px, py, 0.0, self.s, self.alpha, self.beta, self.mu)
+
+
+def follower(command, particle_class: int):
+    """What an agent of `particle_class` follows: the command's shape if it has one, else its class' route."""
+    if command.fill is not None:
+        return FillFollower(command.fill, command.beta, command.mu)
+    return RouteFollower(command.classes[particle_class].route, command.beta, command.mu)
+
+
+def followers_for(command, ids) -> list:
     """The reference drivers' controls for a command: what each agent would decide for itself."""
     shares = [c.share for c in command.classes]
-    out = []
-    for i in ids:
-        k = class_of(int(i), command.n_agents, shares)
-        out.append(RouteFollower(command.classes[k].route, command.beta, command.mu))
-    return out
+    return [follower(command, class_of(int(i), command.n_agents, shares)) for i in ids]
 
 
 class CommandFollower:
@@ -94,7 +115,7 @@ class CommandFollower:
         self.pending = None
         self._current_payload: bytes | None = None
         self._replays: set[bytes] = set()
-        self.follower: RouteFollower | None = None
+        self.follower: RouteFollower | FillFollower | None = None
         self.particle_class = 0
         self.accepted = 0
         self.first_command_at: float | None = None
@@ -137,7 +158,7 @@ class CommandFollower:
             self.command, self.pending = self.pending, None
             shares = [c.share for c in self.command.classes]
             self.particle_class = class_of(self.agent_id, self.command.n_agents, shares)
-            self.follower = RouteFollower(self.command.classes[self.particle_class].route, self.command.beta, self.command.mu)
+            self.follower = follower(self.command, self.particle_class)
         if self.follower is None:
             return self.static
         return self.follower.control(state, step)

@@ -20,6 +20,8 @@ MAX_BYTES = 64 * 1024
 MAX_CLASSES = 64
 MAX_ROUTE = 32
 MAX_COORD = 1e6
+MAX_RINGS = 32
+MAX_VERTICES = 512  # over all rings of a fill shape: the crossing check is O(V^2) in every agent
 
 
 class CommandRejected(ValueError):
@@ -52,6 +54,18 @@ class ParticleClass:
 
 
 @dataclass(frozen=True)
+class Fill:
+    """The silhouette the swarm fills (agent/fill.py): `rings` of (x, y) vertices [m], closed implicitly,
+    even-odd (a ring inside another is a hole), no two edges crossing; already eroded by half a particle
+    spacing by the coordinator. A particle outside is pulled towards the nearest boundary point with gain
+    `alpha` [1/s^2] over ramp `s` [m] (eq. 6.2); inside, no body force."""
+
+    rings: tuple[tuple[tuple[float, float], ...], ...]
+    alpha: float
+    s: float
+
+
+@dataclass(frozen=True)
 class GestureCommand:
     seq: int  # strictly increasing per run: agents reject older ones (replay)
     gesture: str  # what the coordinator recognised (for logs)
@@ -60,9 +74,15 @@ class GestureCommand:
     beta: float = 2.0  # stiffness before any switch
     mu: float = 0.0  # viscosity before any switch
     extra: dict = field(default_factory=dict)  # free-form annotations (ellipses, controller) for logs only
+    fill: Fill | None = None  # the shape to fill; with it, routes are not followed (classes still label)
 
     def body(self) -> dict:
         d = asdict(self)
+        if self.fill is None:
+            del d["fill"]  # commands without a shape keep their v1 bytes
+        else:
+            d["fill"] = {"rings": [[list(v) for v in ring] for ring in self.fill.rings],
+                         "alpha": self.fill.alpha, "s": self.fill.s}
         d["classes"] = [{"name": c.name, "share": c.share,
                          "route": [{k: v for k, v in asdict(w).items() if v is not None} for w in c.route]}
                         for c in self.classes]
@@ -90,6 +110,8 @@ def _num(d: dict, key: str, lo: float, hi: float, optional: bool = False):
             return None
         raise CommandRejected("malformed", f"missing {key}")
     v = d[key]
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) > 2**1023:  # float(v) would overflow
+        raise CommandRejected("malformed", f"{key} out of range")
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
         raise CommandRejected("malformed", f"{key}={v!r} not in [{lo}, {hi}]")
     return float(v)
@@ -149,7 +171,7 @@ def decode(data: bytes, secret: bytes) -> GestureCommand:
 
 
 def parse_body(body: dict) -> GestureCommand:
-    _only(body, {"seq", "gesture", "n_agents", "classes", "beta", "mu", "extra"}, "body")
+    _only(body, {"seq", "gesture", "n_agents", "classes", "beta", "mu", "extra", "fill"}, "body")
     seq = body.get("seq")
     if isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq < 2**62:
         raise CommandRejected("malformed", "seq")
@@ -184,4 +206,52 @@ def parse_body(body: dict) -> GestureCommand:
     extra = body.get("extra", {})
     if not isinstance(extra, dict):
         raise CommandRejected("malformed", "extra")
-    return GestureCommand(seq, gesture, n, tuple(classes), _num(body, "beta", 0.0, 1e4), _num(body, "mu", 0.0, 1e4), extra)
+    fill = _fill(body["fill"]) if "fill" in body else None
+    return GestureCommand(seq, gesture, n, tuple(classes), _num(body, "beta", 0.0, 1e4), _num(body, "mu", 0.0, 1e4),
+                          extra, fill)
+
+
+def _fill(f) -> Fill:
+    _only(f, {"rings", "alpha", "s"}, "fill")
+    raw = f.get("rings")
+    if not isinstance(raw, list) or not 1 <= len(raw) <= MAX_RINGS:
+        raise CommandRejected("malformed", "fill rings")
+    rings, total = [], 0
+    for ring in raw:
+        if not isinstance(ring, list) or len(ring) < 3:
+            raise CommandRejected("malformed", "fill ring has fewer than 3 vertices")
+        total += len(ring)
+        if total > MAX_VERTICES:
+            raise CommandRejected("malformed", f"fill has more than {MAX_VERTICES} vertices")
+        vs = []
+        for v in ring:
+            if not isinstance(v, list) or len(v) != 2:
+                raise CommandRejected("malformed", "fill vertex is not [x, y]")
+            vs.append((_num({"x": v[0]}, "x", -MAX_COORD, MAX_COORD), _num({"y": v[1]}, "y", -MAX_COORD, MAX_COORD)))
+        rings.append(tuple(vs))
+    if edges_cross(rings):
+        raise CommandRejected("malformed", "fill rings cross themselves or each other")
+    return Fill(tuple(rings), _num(f, "alpha", 0.0, 1e4), _num(f, "s", 0.0, MAX_COORD))
+
+
+def _side(ax, ay, bx, by, cx, cy):
+    """Sign of the turn a -> b -> c (+1 left, -1 right, 0 on the line)."""
+    cross = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    return (cross > 0.0) - (cross < 0.0)
+
+
+def edges_cross(rings) -> bool:
+    """Do two edges of the rings cross properly (each one's ends strictly on both sides of the other)?
+
+    Touching (a shared vertex, a vertex on an edge, collinear overlap) is not crossing: adjacent edges
+    share a vertex, and a pixel contour may touch itself. O(V^2); the same test in agent/native/src/fill.rs.
+    """
+    edges = [(*ring[k], *ring[(k + 1) % len(ring)]) for ring in rings for k in range(len(ring))]
+    for a in range(len(edges)):
+        ax, ay, bx, by = edges[a]
+        for b in range(a + 1, len(edges)):
+            cx, cy, dx, dy = edges[b]
+            if _side(ax, ay, bx, by, cx, cy) * _side(ax, ay, bx, by, dx, dy) < 0 and \
+                    _side(cx, cy, dx, dy, ax, ay) * _side(cx, cy, dx, dy, bx, by) < 0:
+                return True
+    return False

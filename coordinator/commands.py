@@ -13,8 +13,9 @@ def register(sub) -> None:
     p.set_defaults(func=_coordinator)
     p = sub.add_parser("imitate", help="perception -> coordinator -> N agent processes -> formation, MCAP, fidelity")
     p.add_argument("input", help="image, folder of frames, or video")
-    p.add_argument("--controller", default="region", choices=["region", "pca", "ann"],
-                   help="region (default): fill the silhouette; pca: the recognised class' template; ann: skeleton -> body force")
+    p.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"],
+                   help="fill (default): the swarm fills the silhouette like a liquid; region: waypoints at k-means "
+                        "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force")
     p.add_argument("--frame", type=int, default=None, help="which frame of a clip or folder to imitate (default 0)")
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)

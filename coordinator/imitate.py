@@ -32,7 +32,7 @@ class ImitationResult:
 
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
-            controller: str = "region", failures=(), seed: int = 0, name: str = "imitate",
+            controller: str = "fill", failures=(), seed: int = 0, name: str = "imitate",
             on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
             frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
             rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0) -> ImitationResult:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -10,19 +10,24 @@ from agent.sph.params import SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from coordinator.command import GestureCommand
-from coordinator.region import body_region_command, domain_for, fit_transform, region_command
+from coordinator.fill import AREA_PER_PARTICLE as FILL_AREA, INITIAL_SPACING as FILL_SPACING, fill_command, rest_density
+from coordinator.region import AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command
 from fluidswarm.geometry import ImageToDomain
 from perception.segmentation import hand_mask
 
 DEFAULT_STEPS = 700
 
 
-def imitation_params(domain) -> SPHParams:
+def imitation_params(domain, controller: str = "") -> SPHParams:
     """SPH settings of the imitation runs: the thesis' model plus a little drag so the swarm settles.
 
-    dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s.
+    dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
+    sets the rest density from the area each particle is given (coordinator/fill.py: rest_density).
     """
-    return SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border="reflect")
+    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border="reflect")
+    if controller == "fill":
+        params = replace(params, rho0=rest_density(params))
+    return params
 
 
 @dataclass
@@ -34,11 +39,19 @@ class Imitation:
     observation: object = None
 
 
-CONTROLLERS = ("region", "pca", "ann")
+CONTROLLERS = ("fill", "region", "pca", "ann")
+DEFAULT_CONTROLLER = "fill"
 
 
-def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = "region", seq: int = 1) -> GestureCommand:
+def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDomain:
+    """The image -> domain map, fixed by the first frame: the fill controller gives each particle more area."""
+    return fit_transform(mask, n_agents, FILL_AREA if controller == "fill" else AREA_PER_PARTICLE)
+
+
+def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1) -> GestureCommand:
     """The chosen controller's command for one observation (coordinator.observe.Observation)."""
+    if controller == "fill":
+        return fill_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
     if controller == "region":
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
@@ -54,18 +67,22 @@ def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str 
     raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
 
 
-def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = "region",
+def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER,
                         transform: ImageToDomain | None = None) -> Imitation:
     """Transform (silhouette area = what n_agents particles cover), SPH parameters, command, and the initial
     swarm: a compact lattice (spacing 1 m) at the command's common first waypoint (palm/torso centre)."""
     mask = obs.mask
-    transform = transform or fit_transform(mask, n_agents)
-    params = imitation_params(domain_for(mask, transform))
+    fill = controller == "fill"
+    transform = transform or transform_for(mask, n_agents, controller)
+    params = imitation_params(domain_for(mask, transform), controller)
     command = build_command(obs, transform, n_agents, controller, seq)
-    first = command.classes[0].route[0]
-    centre = np.array([first.x, first.y])
+    if fill:  # the silhouette's most interior point
+        centre = np.array(transform.to_domain(np.array(centre_px(mask)) + 0.5))
+    else:
+        first = command.classes[0].route[0]
+        centre = np.array([first.x, first.y])
     columns = max(1, int(round(np.sqrt(n_agents))))
-    pos = lattice(n_agents, columns, 1.0)
+    pos = lattice(n_agents, columns, FILL_SPACING if fill else 1.0)
     pos += centre - pos.mean(axis=0)
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
     controls = [Control(beta=command.beta, mu=command.mu) for _ in range(n_agents)]
@@ -77,7 +94,7 @@ def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = "reg
     return Imitation(mask, transform, command, setup, obs)
 
 
-def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = "region") -> Imitation:
+def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER) -> Imitation:
     """A hand photograph -> its imitation set-up."""
     from coordinator.observe import Observation, hand_label
 
@@ -99,7 +116,7 @@ def observations_for(path, frame: int | None = None):
     return frames, observe(path, frames), (frame or 0)
 
 
-def prepare_input(path, n_agents: int, controller: str = "region", frame: int | None = None,
+def prepare_input(path, n_agents: int, controller: str = DEFAULT_CONTROLLER, frame: int | None = None,
                   sequence: bool = False) -> Imitation:
     """An image, folder or clip -> the set-up that imitates one of its frames (default the first).
 

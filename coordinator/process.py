@@ -23,21 +23,20 @@ from agent import keys
 from agent.session import client_config
 
 
-def commands_for_frames(path, n_agents: int, controller: str = "region", frame: int | None = None):
+def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: int | None = None):
     """One command per recognised gesture along the frames: a new one (next sequence number) whenever the
     recognised gesture (the command's `gesture`) changes between consecutive frames. With `frame`, only that
     frame. The image -> domain transform is fixed by the first frame shown (so is the imitate target's)."""
     return [c for _k, c in frame_commands(path, n_agents, controller, frame)]
 
 
-def frame_commands(path, n_agents: int, controller: str = "region", frame: int | None = None):
+def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | None = None):
     """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
-    from coordinator.imitation_setup import build_command, observations_for
-    from coordinator.region import fit_transform
+    from coordinator.imitation_setup import build_command, observations_for, transform_for
 
     _frames, obs, k = observations_for(path, frame)
     shown = [obs[k]] if frame is not None else obs
-    transform = fit_transform(shown[0].mask, n_agents)
+    transform = transform_for(shown[0].mask, n_agents, controller)
     out = []
     last = None
     for i, o in enumerate(shown):
@@ -71,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", required=True, help="image, folder of frames, or video")
     ap.add_argument("--agents", type=int, required=True)
-    ap.add_argument("--controller", default="region", choices=["region", "pca", "ann"])
+    ap.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"])
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")

@@ -23,10 +23,10 @@ from fluidswarm.geometry import ImageToDomain
 AREA_PER_PARTICLE = 1.4
 
 
-def fit_transform(mask: np.ndarray, n_agents: int) -> ImageToDomain:
+def fit_transform(mask: np.ndarray, n_agents: int, area_per_particle: float = AREA_PER_PARTICLE) -> ImageToDomain:
     """Scale the picture so the silhouette's area is what n_agents particles cover; image at the origin."""
     area_px = max(int(mask.sum()), 1)
-    scale = math.sqrt(n_agents * AREA_PER_PARTICLE / area_px)
+    scale = math.sqrt(n_agents * area_per_particle / area_px)
     rows = mask.shape[0]
     return ImageToDomain(scale=scale, x0=0.0, y0=rows * scale)
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from agent.sph.params import SPHParams
 from fluidswarm.errors import UserError
 
-CONTROLLERS = ("region", "pca", "ann", "none")
+CONTROLLERS = ("fill", "region", "pca", "ann", "none")
 SYNC_MODES = ("lockstep", "async")
 FAILURE_KINDS = ("kill", "freeze", "drop", "kill_coordinator", "late_join")
 EXPERIMENTS = ("imitate", "branching", "drag")
@@ -68,7 +68,7 @@ class Scenario:
     input: str = ""  # image, folder of frames or video; relative to the scenario file or the repo
     frame: int = -1  # which frame of a clip/folder to imitate (-1: the first; see frame_steps)
     frame_steps: int = 0  # > 0: a gesture sequence, every frame shown for this many steps (thesis ch. 5)
-    controller: str = "region"
+    controller: str = "fill"
     agents: int = 60
     steps: int = 0  # 0: the experiment's default
     dt: float = 0.0  # 0: the experiment's default
@@ -134,7 +134,7 @@ def load_scenario(path: str | Path) -> Scenario:
             kw[key] = _typed(file, key, raw[key], kind)
     if kw.get("experiment", "imitate") not in EXPERIMENTS:
         raise UserError(f"{file}: key 'experiment': must be one of {EXPERIMENTS}, got {kw['experiment']!r}")
-    if kw.get("controller", "region") not in CONTROLLERS:
+    if kw.get("controller", "fill") not in CONTROLLERS:
         raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
     if kw.get("sync", "lockstep") not in SYNC_MODES:
         raise UserError(f"{file}: key 'sync': must be one of {SYNC_MODES}, got {kw['sync']!r}")
