@@ -30,6 +30,7 @@ def _coordinator(args) -> int:
 
 
 def _imitate(args) -> int:
+    from coordinator.fill import ShapeError
     from coordinator.imitate import imitate
     from coordinator.imitation_setup import DEFAULT_STEPS
     from fluidswarm.recording.fidelity import format_fidelity
@@ -44,9 +45,12 @@ def _imitate(args) -> int:
     try:
         res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller, frame=args.frame,
                       name=Path(args.input).stem or "imitate")
-    except (InputError, SegmentationError) as exc:
+    except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
     print(format_fidelity(res.fidelity))
+    print(f"formation_seconds={res.formation_seconds:.2f}")
+    print(f"formation_wall_seconds={res.formation_wall_seconds:.2f}")
+    print(f"formation_settled={'true' if res.settled else 'false'}")
     print(f"agents_finished={sum(1 for r in res.finals.values() if r.get('status') == 'done')}")
     print(f"steps_per_second={res.steps_per_second:.2f}")
     print(f"mcap={res.mcap}")

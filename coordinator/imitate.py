@@ -15,6 +15,7 @@ import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
 from coordinator.imitation_setup import DEFAULT_STEPS, prepare_input
+from coordinator.settle import SettleRule, SettleWatch
 from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
 
@@ -29,17 +30,23 @@ class ImitationResult:
     command_json: str
     launcher_events: list = field(default_factory=list)
     coordinator_code: int | None = None
+    formation_seconds: float = 0.0  # simulated time until the formation settled (or the cap)
+    formation_wall_seconds: float = 0.0  # wall time from the start signal to that moment
+    settled: bool = False
 
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
             controller: str = "fill", failures=(), seed: int = 0, name: str = "imitate",
             on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
             frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
-            rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0) -> ImitationResult:
+            rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0,
+            settle: SettleRule | None = SettleRule()) -> ImitationResult:
     """Imitate one frame of `input_path` (or, with `frame_steps` > 0, the gesture sequence of all its frames,
     each shown for `frame_steps` swarm steps). `sph`/`dt` override the imitation's SPH parameters; `mode`,
     `rate`, `max_age` choose lockstep or asynchronous agents (docs/protocol.md). `launcher_hook(launcher, im)`
-    runs before the agents start; `launcher.spawn_late(count)` then starts late joiners."""
+    runs before the agents start; `launcher.spawn_late(count)` then starts late joiners. A single frame ends
+    when its formation has settled (`settle`, coordinator/settle.py; None: always `steps` steps); a sequence
+    runs its `steps`, switching gestures on the run's clock."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = frame_steps > 0
@@ -71,13 +78,28 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
             launcher.spawn_late = lambda count: launcher.spawn_joiners(
                 count, (first.x, first.y), im.setup.controls[0], im.setup.params, steps, mode=mode, rate=rate,
                 max_age=max_age)
+            watch = None
+            if settle is not None and not sequence:
+                watch = SettleWatch(launcher, im.mask, im.transform, im.setup.params.dt, settle)
+
+            def started(la):
+                t_start[0] = time.monotonic()
+                if watch is not None:
+                    watch.start()
+                if on_started is not None:
+                    on_started(la)
+
+            t_start = [time.monotonic()]
             try:
                 launcher.track_progress()
                 if launcher_hook is not None:
                     launcher_hook(launcher, im)
-                res = run_swarm(im.setup, steps, launcher=launcher, on_started=on_started, progress=progress,
+                res = run_swarm(im.setup, steps, launcher=launcher, on_started=started, progress=progress,
                                 per_agent=per_agent, mode=mode, rate=rate, max_age=max_age)
+                wall = time.monotonic() - t_start[0]
             finally:
+                if watch is not None:
+                    watch.stop()
                 if coord.poll() is None:
                     coord.terminate()
                 try:
@@ -95,6 +117,10 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     png = plot_formation(out / f"{name}_formation.png", pos, classes, [c.name for c in im.command.classes],
                          f"{Path(input_path).name}: {len(ids)} agents, iou {fid.iou:.2f}",
                          background=im.mask.astype(float), extent=extent, waypoints=wps)
+    settled = watch is not None and watch.settled_step is not None
+    last_step = max((int(r.get("steps", 0)) for r in done.values()), default=0)
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
-                           res.events, coord.returncode)
+                           res.events, coord.returncode,
+                           formation_seconds=(watch.settled_step if settled else last_step) * im.setup.params.dt,
+                           formation_wall_seconds=watch.settled_wall_seconds if settled else wall, settled=settled)
 

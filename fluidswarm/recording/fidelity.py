@@ -8,6 +8,8 @@ just cover T):
 - iou      = |T ∩ F| / |T ∪ F|
 - inside   = fraction of particles inside T dilated by r_d (as in swarm shape-assembly papers)
 - coverage = fraction of T's skeleton pixels within 2 * r_d of a particle
+- nn_cv    = coefficient of variation (std / mean) of each particle's nearest-neighbour distance: 0 for a
+             perfect lattice, high when particles sit in clumps (the region controller's clumps of three: ~0.7)
 
 Areas are counted in cells of one grid in pixel space: the mask's own pixels, split k x k when the mask
 is tiny or r_d is under a few pixels. A disc covers the cells whose centres it contains; the grid is
@@ -38,6 +40,17 @@ class Fidelity:
     iou: float
     inside: float
     coverage: float
+    nn_cv: float = 0.0
+
+
+def nn_cv(positions: np.ndarray) -> float:
+    """std / mean of the nearest-neighbour distances (0 with fewer than 2 particles or all coincident)."""
+    xy = np.asarray(positions, dtype=float).reshape(-1, 2)
+    if len(xy) < 2:
+        return 0.0
+    d = cKDTree(xy).query(xy, k=2)[0][:, 1]
+    mean = float(d.mean())
+    return float(d.std() / mean) if mean > 0.0 else 0.0
 
 
 def _disc_cells(centres: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,9 +143,10 @@ def fidelity(target_mask: np.ndarray, transform: ImageToDomain, positions: np.nd
     nearest, _ = cKDTree(uv).query(_skeleton_points(mask), k=1)
     coverage = float(np.mean(nearest <= 2 * r_px))
 
-    return Fidelity(iou=float(iou), inside=float(inside.mean()), coverage=coverage)
+    return Fidelity(iou=float(iou), inside=float(inside.mean()), coverage=coverage, nn_cv=nn_cv(xy))
 
 
 def format_fidelity(f: Fidelity) -> str:
-    """The three lines `fidelity_iou=...`, `fidelity_inside=...`, `fidelity_coverage=...` (no trailing newline)."""
-    return f"fidelity_iou={f.iou:.4f}\nfidelity_inside={f.inside:.4f}\nfidelity_coverage={f.coverage:.4f}"
+    """The lines `fidelity_iou=`, `fidelity_inside=`, `fidelity_coverage=`, `nn_cv=` (no trailing newline)."""
+    return (f"fidelity_iou={f.iou:.4f}\nfidelity_inside={f.inside:.4f}\nfidelity_coverage={f.coverage:.4f}"
+            f"\nnn_cv={f.nn_cv:.4f}")
