@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import math
 import os
 import secrets
 import shutil
@@ -34,6 +35,7 @@ from agent.sph.particle import Control
 from agent.wire import STATE_SIZE
 
 _ID_STEP = __import__("struct").Struct("<II")
+_MOTION = __import__("struct").Struct("<4d")  # x, y, vx, vy of a state record (agent/wire.py layout)
 _CLOCK = __import__("struct").Struct("<Q")
 
 _PR_SET_PDEATHSIG = 1
@@ -156,6 +158,8 @@ class Launcher:
             return
         self._tracking = True
         self.agent_steps: dict[int, tuple[int, float]] = {}
+        self.motion: dict[int, tuple[int, float, float, float, float]] = {}  # id -> (step, x, y, vx, vy), newest
+        self.end_step: int | None = None
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
@@ -173,6 +177,9 @@ class Launcher:
         last = self.agent_steps.get(agent_id)
         if (last is None or step > last[0]) and step <= self.max_step + 1000:
             self.agent_steps[agent_id] = (step, now)
+            motion = _MOTION.unpack_from(data, 16)
+            if all(math.isfinite(v) for v in motion):  # untrusted: only finite numbers reach the watchers
+                self.motion[agent_id] = (step, *motion)
         if step not in self.step_times and step <= self.max_step + 1000:
             self.step_times[step] = now
             if step > self.max_step:
@@ -208,6 +215,8 @@ class Launcher:
                 said, said_at = last, now
                 try:
                     self.session.put(key, _CLOCK.pack(last), congestion_control=zenoh.CongestionControl.BLOCK)
+                    if self.end_step is not None:
+                        self.end_at(self.end_step)
                 except Exception:  # the session is closing
                     return
 
@@ -342,6 +351,13 @@ class Launcher:
                     missing = sorted(want - self.swarm.alive)
                     raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
                 self.swarm.changed.wait(min(left, 0.5))
+
+    def end_at(self, step: int) -> None:
+        """Every agent finishes at `step` (or its own last step if that comes first): ctl/end, said again
+        with the clock so that no agent misses it."""
+        self.end_step = int(step)
+        self.session.put(keys.ctl_key(self.run, "end"), _CLOCK.pack(self.end_step),
+                         congestion_control=zenoh.CongestionControl.BLOCK)
 
     def start(self) -> None:
         # Block, not zenoh's default Drop: at N = 1000 the links are still full of liveliness declarations
