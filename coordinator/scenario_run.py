@@ -52,6 +52,8 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
                          failures=watch["injector"].log.injected)
     f = res.fidelity
     summary.fidelity_iou = f.iou
-    summary.figures.update({"fidelity_iou": f.iou, "fidelity_inside": f.inside, "fidelity_coverage": f.coverage})
+    summary.figures.update({"fidelity_iou": f.iou, "fidelity_inside": f.inside, "fidelity_coverage": f.coverage,
+                            "nn_cv": f.nn_cv, "formation_seconds": res.formation_seconds,
+                            "formation_wall_seconds": res.formation_wall_seconds})
     summary.pictures = [str(res.png)]
     return summary

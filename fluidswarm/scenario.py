@@ -43,6 +43,7 @@ class PassCriteria:
 
     min_fidelity_iou     final formation vs target silhouette (fluidswarm/recording/fidelity.py)
     min_fidelity_inside  share of particles inside the silhouette
+    max_nn_cv            uniformity: coefficient of variation of nearest-neighbour distances (clumps: high)
     min_branch_gap       m, edge-branch separation of the branching experiment
     min_fidelity_ratio   fidelity_iou with the scenario's failures / without them (same seed): `run` then
                          also runs the scenario without failures first, side by side
@@ -53,6 +54,7 @@ class PassCriteria:
 
     min_fidelity_iou: float = 0.0
     min_fidelity_inside: float = 0.0
+    max_nn_cv: float = 0.0
     min_branch_gap: float = 0.0
     min_fidelity_ratio: float = 0.0
     max_stall_seconds: float = 0.0

@@ -242,6 +242,8 @@ def _finish(sc: Scenario, summary: RunSummary, out: Path, watch: dict, baseline:
 
     if crit.min_fidelity_iou:
         need(f.get("fidelity_iou", 0.0) >= crit.min_fidelity_iou, f"fidelity_iou {f.get('fidelity_iou', 0.0):.3f} < {crit.min_fidelity_iou}")
+    if crit.max_nn_cv:
+        need(f.get("nn_cv", 1e9) <= crit.max_nn_cv, f"nn_cv {f.get('nn_cv', float('nan')):.3f} > {crit.max_nn_cv}")
     if crit.min_fidelity_inside:
         need(f.get("fidelity_inside", 0.0) >= crit.min_fidelity_inside, f"fidelity_inside {f.get('fidelity_inside', 0.0):.3f} < {crit.min_fidelity_inside}")
     if crit.min_branch_gap:
