@@ -35,6 +35,8 @@ THIN_PART = 0.5  # erode a thin part by at most this fraction of its half-width
 ALPHA, RAMP = 80.0, 0.2  # the wall: 80 1/s^2 over 0.2 m (at most 16 m/s^2 back into the shape)
 BETA, MU = 2.0, 0.2
 INITIAL_SPACING = 1.2  # m, the starting lattice at the palm / torso centre
+MIN_PIXELS_PER_PARTICLE = 2  # a smaller silhouette cannot say where N particles go
+MIN_FILLABLE = 0.25  # the vessel must keep at least this share of the silhouette (else: too thin / fragmented)
 
 
 class ShapeError(ValueError):
@@ -66,8 +68,15 @@ def vessel(mask: np.ndarray, erode_px: float) -> np.ndarray:
 
 def shape_rings(mask: np.ndarray, transform: ImageToDomain, n_agents: int) -> tuple[tuple[tuple[float, float], ...], ...]:
     """The vessel as polygons in domain metres (outer boundaries and holes), at most MAX_VERTICES vertices."""
+    area_px = int(np.count_nonzero(mask))
+    if area_px < MIN_PIXELS_PER_PARTICLE * n_agents:
+        raise ShapeError(f"the silhouette has {area_px} pixels, too few for {n_agents} particles "
+                         f"(at least {MIN_PIXELS_PER_PARTICLE} per particle)")
     erode_px = 0.5 * spacing() / transform.scale
     v = vessel(mask, erode_px).astype(np.uint8)
+    if np.count_nonzero(v) < MIN_FILLABLE * area_px:
+        raise ShapeError(f"the silhouette is too thin or fragmented for {n_agents} particles: only "
+                         f"{np.count_nonzero(v) / area_px:.0%} of it is wider than a particle spacing")
     contours, _ = cv2.findContours(v, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
     # Parts smaller than a tenth of a particle's area are noise, not something to fill.
     min_px = 0.1 * AREA_PER_PARTICLE / transform.scale**2

@@ -16,6 +16,7 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
     from fluidswarm.failures import FailureInjector
     from fluidswarm.scenario_commands import ProgressLine, RunSummary
     from perception.io import InputError
+    from coordinator.fill import ShapeError
     from perception.segmentation import SegmentationError
 
     watch = {} if watch is None else watch
@@ -41,7 +42,7 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
                       per_agent=drop, frame=None if sc.frame < 0 else sc.frame, frame_steps=sc.frame_steps,
                       sph=sc.sph, dt=sc.dt, mode=sc.sync, rate=sc.async_rate, max_age=sc.async_max_age,
                       agent_timeout=sc.neighbour_timeout or 5.0)
-    except (InputError, SegmentationError) as exc:
+    except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{sc.path}: input {sc.input}: {exc}") from None
     finally:
         if "injector" in watch:
