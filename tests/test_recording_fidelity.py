@@ -3,11 +3,13 @@
 import time
 
 import cv2
+import dataclasses
+
 import numpy as np
 import pytest
 
 from fluidswarm.geometry import ImageToDomain
-from fluidswarm.recording.fidelity import Fidelity, fidelity, format_fidelity
+from fluidswarm.recording.fidelity import Fidelity, fidelity, format_fidelity, nn_cv
 from fluidswarm.recording.skeleton import skeletonize
 from fluidswarm.recording.synthetic import silhouette, spread_over
 
@@ -52,7 +54,7 @@ def test_score_does_not_depend_on_the_domain_scale():
     large = ImageToDomain(scale=3.0, x0=-50.0, y0=400.0)
     a = fidelity(MASK, small, small.to_domain(pts_px))
     b = fidelity(MASK, large, large.to_domain(pts_px))
-    assert a == pytest.approx(b)
+    assert dataclasses.astuple(a) == pytest.approx(dataclasses.astuple(b))
 
 
 def test_tiny_mask_is_refined():
@@ -85,10 +87,19 @@ def _timed(fn) -> float:
     return time.perf_counter() - t0
 
 
-def test_format_gives_three_parsable_lines():
-    lines = format_fidelity(Fidelity(iou=0.5, inside=0.25, coverage=1.0)).splitlines()
-    assert [ln.split("=")[0] for ln in lines] == ["fidelity_iou", "fidelity_inside", "fidelity_coverage"]
-    assert [float(ln.split("=")[1]) for ln in lines] == [0.5, 0.25, 1.0]
+def test_format_gives_four_parsable_lines():
+    lines = format_fidelity(Fidelity(iou=0.5, inside=0.25, coverage=1.0, nn_cv=0.125)).splitlines()
+    assert [ln.split("=")[0] for ln in lines] == ["fidelity_iou", "fidelity_inside", "fidelity_coverage", "nn_cv"]
+    assert [float(ln.split("=")[1]) for ln in lines] == [0.5, 0.25, 1.0, 0.125]
+
+
+def test_nn_cv_is_zero_on_a_lattice_and_high_for_clumps():
+    lattice = np.array([[i, j] for i in range(6) for j in range(6)], float)
+    assert nn_cv(lattice) == pytest.approx(0.0, abs=1e-12)
+    clumps = np.concatenate([lattice * 5, lattice * 5 + 0.1])  # pairs: nn 0.1 inside, 5 between
+    assert nn_cv(clumps) == pytest.approx(0.0, abs=1e-12)  # all pairs alike: uniform nn distance
+    mixed = np.concatenate([lattice * 5, lattice[:18] * 5 + 0.1])  # half paired, half alone
+    assert nn_cv(mixed) > 0.5
 
 
 def test_skeleton_of_a_bar_is_its_centre_line():
