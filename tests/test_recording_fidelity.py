@@ -1,10 +1,9 @@
 """Imitation fidelity on synthetic formations (issue 6) and the Zhang-Suen skeleton it relies on."""
 
+import dataclasses
 import time
 
 import cv2
-import dataclasses
-
 import numpy as np
 import pytest
 
