@@ -16,10 +16,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from agent.route import CommandFollower, RouteFollower, class_counts, class_of
+from agent.fill import inside, nearest_point
+from agent.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
 from agent.sph.particle import NFIELDS, Control
 from agent.wire import decode_state, encode_state
-from coordinator.command import CommandRejected, Waypoint, decode
+from coordinator.command import CommandRejected, Fill, Waypoint, decode, edges_cross
 
 VECTORS = Path(__file__).resolve().parent / "vectors"
 
@@ -64,6 +65,9 @@ def test_command(v):
            "classes": [[lossy(c.name), c.share, [[w.x, w.y, w.r, w.s, w.alpha, w.beta, w.mu] for w in c.route]]
                        for c in cmd.classes],
            "beta": cmd.beta, "mu": cmd.mu}
+    if cmd.fill is not None:
+        got["fill"] = {"rings": [[list(p) for p in ring] for ring in cmd.fill.rings], "alpha": cmd.fill.alpha,
+                       "s": cmd.fill.s}
     assert same(got, v["expect"])
 
 
@@ -112,6 +116,28 @@ def test_route_follower(case):
         assert f.index == step["index"]
 
 
+FILL = load("fill.json")
+
+
+@pytest.mark.parametrize("case", FILL["followers"], ids=lambda c: c["name"])
+def test_fill_follower(case):
+    rings = tuple(tuple((x, y) for x, y in ring) for ring in case["rings"])
+    f = FillFollower(Fill(rings, case["alpha"], case["s"]), case["beta"], case["mu"])
+    for step in case["steps"]:
+        x, y = step["position"]
+        assert inside(rings, x, y) == step["inside"], step
+        assert same(list(nearest_point(rings, x, y)), step["nearest"]), step
+        state = np.zeros(NFIELDS)
+        state[0], state[1] = x, y
+        assert same(control_list(f.control(state, 0)), step["control"]), step
+        assert f.index == 0
+
+
+def test_edges_cross():
+    for case in FILL["edges_cross"]:
+        assert edges_cross([[tuple(v) for v in ring] for ring in case["rings"]]) == case["cross"], case
+
+
 def test_float_repr():
     for bits, text in load("float_repr.json"):
         assert repr(struct.unpack("<d", bytes.fromhex(bits))[0]) == text
@@ -128,4 +154,5 @@ def test_files_are_current():
     payloads = {v["name"]: bytes.fromhex(v["payload_hex"]) for v in vectors}
     assert same(gen.follower_sequences(payloads), SEQUENCES["sequences"])
     assert same(gen.route_vectors(), ROUTE)
+    assert same(gen.fill_vectors(), FILL)
     assert same(gen.float_reprs(), load("float_repr.json"))

@@ -6,9 +6,11 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
 
     state_records.json      wire.decode_state: 88-byte records, valid and rejected (reason)
     commands.json           coordinator.command.decode: envelopes (raw bytes in hex), accepted (parsed
-                            fields) or rejected (reason)
+                            fields, the fill shape when there is one) or rejected (reason)
     command_sequences.json  agent.route.CommandFollower: offers in order with each answer, and controls
     route.json              agent.route.class_counts/class_of and RouteFollower controls
+    fill.json               agent.fill.inside/nearest_point and FillFollower controls, and
+                            coordinator.command.edges_cross
     float_repr.json         Python's repr(float), which the canonical command body uses
 
 Deterministic: a fixed secret, fixed commands and seeded random numbers. Expected floats are written by
@@ -32,11 +34,17 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent))
 
-from agent.route import CommandFollower, RouteFollower, class_counts, class_of  # noqa: E402
+from agent.fill import inside, nearest_point  # noqa: E402
+from agent.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of  # noqa: E402
 from agent.sph.particle import NFIELDS, Control  # noqa: E402
 from agent.wire import decode_state, encode_state  # noqa: E402
 from coordinator.command import (  # noqa: E402
-    MAX_BYTES, CommandRejected, GestureCommand, ParticleClass, Waypoint, _canonical, decode)
+    MAX_BYTES, MAX_RINGS, MAX_VERTICES, CommandRejected, Fill, GestureCommand, ParticleClass, Waypoint, _canonical,
+    decode, edges_cross)
+
+# The digit-2 hand photo of the shared sign-language-digits set (IMG_1140.JPG), committed with the scenarios:
+# the generator (and tests/test_vectors.py, which reruns it) needs no ../shared.
+PHOTO = HERE.parent.parent / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
 
 SECRET = bytes(range(32))
 OTHER_SECRET = bytes(range(1, 33))
@@ -313,7 +321,7 @@ def command_vectors() -> list:
         ("mu_bool", sign(body(mu=False))),
         ("extra_not_object", sign(body(extra=[]))),
         ("extra_null", sign(body(extra=None))),
-    ]
+    ] + fill_command_cases()
     out = []
     for name, data in cases:
         try:
@@ -326,10 +334,117 @@ def command_vectors() -> list:
                        for c in cmd.classes]
             expect = {"accept": True, "seq": cmd.seq, "gesture": lossy(cmd.gesture), "n_agents": cmd.n_agents,
                       "classes": classes, "beta": cmd.beta, "mu": cmd.mu}
+            if cmd.fill is not None:  # only then: the v1 vectors keep their expectations
+                expect["fill"] = fill_list(cmd.fill)
         if not name.startswith("valid"):
             assert "reject" in expect, name
         out.append({"name": name, "payload_hex": bytes(data).hex(), "expect": expect})
     return out
+
+
+def fill_list(fill: Fill) -> dict:
+    return {"rings": [[list(v) for v in ring] for ring in fill.rings], "alpha": fill.alpha, "s": fill.s}
+
+
+def square(x0, y0, side) -> list:
+    return [[x0, y0], [x0 + side, y0], [x0 + side, y0 + side], [x0, y0 + side]]
+
+
+def polygon(n: int, cx=0.0, cy=0.0, radius=10.0) -> list:
+    """A regular n-gon, vertices rounded to 0.1 mm as the coordinator writes them."""
+    return [[round(cx + radius * math.cos(2 * math.pi * k / n), 4), round(cy + radius * math.sin(2 * math.pi * k / n), 4)]
+            for k in range(n)]
+
+
+def photo_command(n_agents: int = 16):
+    """The fill command the coordinator makes for the digit-2 photo."""
+    import cv2
+
+    from coordinator.imitation_setup import prepare
+
+    return prepare(cv2.imread(str(PHOTO)), n_agents).command
+
+
+def fill(**changes) -> dict:
+    f = {"rings": [square(0.0, 0.0, 10.0)], "alpha": 80.0, "s": 0.2}
+    f.update(changes)
+    return f
+
+
+def raw_fill(text: bytes) -> bytes:
+    """The standard body with a fill whose first vertex's x is `text` verbatim, signed over those bytes."""
+    b = _canonical(body(fill=fill(rings=[[["@@", 0.0], [10.0, 0.0], [10.0, 10.0]]])))
+    assert b.count(b'"@@"') == 1
+    return sign_raw(b.replace(b'"@@"', text))
+
+
+def fill_command_cases() -> list:
+    photo = photo_command()
+    assert photo.fill is not None and len(photo.fill.rings) > 1
+    triangles = [[[3.0 * k, 0.0], [3.0 * k + 1.0, 0.0], [3.0 * k, 1.0]] for k in range(MAX_RINGS + 1)]
+    exact = body(fill=fill(rings=[[[0, 0], [10, 0], [10.5, 12.3456], [-0.0, 1e-05], [-1000000, 1e6]]], alpha=80, s=0))
+    return [
+        ("valid_fill_photo", photo.encode(SECRET)),
+        ("valid_fill_photo_relaid", relaid(photo.body())),
+        ("valid_fill_ints_and_exotic_floats", sign(exact)),
+        ("valid_fill_ints_and_exotic_floats_relaid", relaid(exact)),
+        ("valid_fill_float_other_spellings",  # the same canonical body as valid_fill_ints_and_exotic_floats
+         relaid(exact).replace(b"12.3456", b"1234.56e-2").replace(b"1e-05", b"0.00001000")),
+        ("valid_fill_hole", sign(body(fill=fill(rings=[square(0.0, 0.0, 10.0), square(4.0, 4.0, 2.0)])))),
+        ("valid_fill_rings_touch_at_a_vertex",
+         sign(body(fill=fill(rings=[square(0.0, 0.0, 1.0), square(1.0, 1.0, 1.0)])))),
+        ("valid_fill_collinear_overlap",  # a spike back along an edge, as pixel contours have
+         sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [2.0, 0.0], [2.0, 3.0]]])))),
+        ("valid_fill_vertex_on_an_edge",
+         sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, 0.0], [3.0, -1.0], [1.0, -1.0]]])))),
+        ("valid_fill_duplicate_vertex", sign(body(fill=fill(rings=[[[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("valid_fill_rings_32", sign(body(fill=fill(rings=triangles[:MAX_RINGS])))),
+        ("valid_fill_vertices_512", sign(body(fill=fill(rings=[polygon(MAX_VERTICES)])))),
+        ("valid_fill_bounds", sign(body(fill=fill(rings=[[[-1e6, -1e6], [1e6, -1e6], [0, 1000000]]], alpha=10000, s=1e6)))),
+        ("valid_fill_small_ints_alpha_s_zero",
+         sign(body(fill=fill(rings=[[[-1, 0], [1, 0], [0, 1]]], alpha=0, s=0.0)))),
+
+        ("fill_crossing_rings", sign(body(fill=fill(rings=[square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)])))),
+        ("fill_bow_tie", sign(body(fill=fill(rings=[[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("fill_ring_crosses_itself_far_apart",
+         sign(body(fill=fill(rings=[[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [5.0, -5.0], [0.0, 10.0]]])))),
+        ("fill_vertices_513", sign(body(fill=fill(rings=[polygon(MAX_VERTICES + 1)])))),
+        ("fill_vertices_513_over_two_rings",
+         sign(body(fill=fill(rings=[polygon(300, radius=10.0), polygon(MAX_VERTICES + 1 - 300, radius=5.0)])))),
+        ("fill_rings_33", sign(body(fill=fill(rings=triangles)))),
+        ("fill_rings_empty", sign(body(fill=fill(rings=[])))),
+        ("fill_rings_not_list", sign(body(fill=fill(rings={"a": square(0.0, 0.0, 1.0)})))),
+        ("fill_rings_missing", sign(body(fill={"alpha": 80.0, "s": 0.2}))),
+        ("fill_ring_2_vertices", sign(body(fill=fill(rings=[square(0.0, 0.0, 5.0), [[0.0, 0.0], [1.0, 1.0]]])))),
+        ("fill_ring_not_list", sign(body(fill=fill(rings=[{"x": [0.0, 1.0, 2.0]}])))),
+        ("fill_vertex_3_numbers", sign(body(fill=fill(rings=[[[0.0, 0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("fill_vertex_1_number", sign(body(fill=fill(rings=[[[0.0, 0.0], [1.0], [0.0, 1.0]]])))),
+        ("fill_vertex_object", sign(body(fill=fill(rings=[[[0.0, 0.0], {"x": 1.0, "y": 0.0}, [0.0, 1.0]]])))),
+        ("fill_vertex_number", sign(body(fill=fill(rings=[[[0.0, 0.0], 1.0, [0.0, 1.0]]])))),
+        ("fill_vertex_bool", sign(body(fill=fill(rings=[[[True, 0.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("fill_vertex_string", sign(body(fill=fill(rings=[[["0", 0.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("fill_vertex_null", sign(body(fill=fill(rings=[[[0.0, None], [1.0, 0.0], [0.0, 1.0]]])))),
+        ("fill_vertex_beyond_1e6", sign(body(fill=fill(rings=[[[0.0, 0.0], [1000000.0000000001, 0.0], [0.0, 1.0]]])))),
+        ("fill_vertex_int_beyond_1e6", sign(body(fill=fill(rings=[[[0, 0], [1, 0], [0, -1000001]]])))),
+        ("fill_vertex_int_2_1023", sign(body(fill=fill(rings=[[[0, 0], [2**1023, 0], [0, 1]]])))),
+        ("fill_vertex_int_2_1024", sign(body(fill=fill(rings=[[[0, 0], [2**1024, 0], [0, 1]]])))),
+        ("fill_vertex_int_minus_10_400", sign(body(fill=fill(rings=[[[0, 0], [1, 0], [0, -10**400]]])))),
+        ("fill_vertex_nan", raw_fill(b"NaN")),
+        ("fill_vertex_infinity", raw_fill(b"-Infinity")),
+        ("fill_vertex_1e400", raw_fill(b"1e400")),
+        ("fill_vertex_int_4301_digits", raw_fill(b"9" * 4301)),
+        ("fill_unknown_key", sign(body(fill=fill(r=1.0)))),
+        ("fill_not_object", sign(body(fill=[square(0.0, 0.0, 1.0)]))),
+        ("fill_null", sign(body(fill=None))),
+        ("fill_alpha_missing", sign(body(fill={"rings": [square(0.0, 0.0, 1.0)], "s": 0.2}))),
+        ("fill_alpha_beyond_1e4", sign(body(fill=fill(alpha=10000.000000000002)))),
+        ("fill_alpha_bool", sign(body(fill=fill(alpha=True)))),
+        ("fill_alpha_int_2_1024", sign(body(fill=fill(alpha=2**1024)))),
+        ("fill_s_negative", sign(body(fill=fill(s=-1e-300)))),
+        ("fill_s_missing", sign(body(fill={"rings": [square(0.0, 0.0, 1.0)], "alpha": 80.0}))),
+        ("beta_int_2_1024", sign(body(beta=2**1024))),  # _num refuses an int float() cannot hold
+        ("share_int_minus_2_1100", sign(body(classes=[one_class(share=-2**1100)]))),
+    ]
 
 
 def lossy(s: str) -> str:
@@ -364,6 +479,17 @@ def follower_sequences(commands: dict) -> list:
     c3 = cmd(3, n=4, shares=(0.0, 1.0, 3.0)).encode(SECRET)
     c4 = cmd(4).encode(SECRET)
     c5 = cmd(5, n=6, shares=(2.0, 0.0, 1.0)).encode(SECRET)
+    # A shape (a square with a square hole): every agent follows it, whatever its class; then routes again.
+    shape = (((0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)), ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0)))
+    c6_cmd = GestureCommand(6, "fill", 10, cmd(6).classes, 3.0, 0.5, {"controller": "fill"}, Fill(shape, 80.0, 0.2))
+    c6 = c6_cmd.encode(SECRET)
+    c6_relaid = relaid(c6_cmd.body())
+    b = c6_cmd.body()
+    b["fill"]["rings"][0] = [[int(x), int(y)] for x, y in b["fill"]["rings"][0]]  # equal for Python: 20 == 20.0
+    c6_equal = sign(b)
+    b["fill"]["alpha"] = 81.0
+    c6_other = sign(b)
+    c7 = cmd(7).encode(SECRET)
     forged = bytearray(c4)
     forged[20] ^= 1
     steps = [
@@ -372,6 +498,8 @@ def follower_sequences(commands: dict) -> list:
         ("control", (10.0, 1.0)), ("offer", bytes(forged)), ("offer", b"{}"), ("offer", commands["v_2"]),
         ("offer", c3), ("control", (5.0, 1.0)), ("offer", c4), ("offer", c5), ("offer", c4), ("offer", c3),
         ("control", (10.1, 1.0)), ("offer", c5), ("offer", c3), ("control", (15.0, 1.0)), ("control", (100.0, 100.0)),
+        ("offer", c6), ("offer", c6_relaid), ("offer", c6_equal), ("offer", c6_other), ("control", (5.0, 5.0)), ("control", (25.0, 10.0)), ("control", (10.0, 9.0)),
+        ("control", (20.0, 20.0)), ("offer", c5), ("offer", c7), ("control", (0.0, 1.0)),
     ]
     out = []
     for agent_id in (0, 4, 9, 12):
@@ -465,6 +593,70 @@ def pow_case(rng) -> dict:
 
 
 # ----------------------------------------------------------------------------------------------------------
+# the fill law and the crossing check
+
+def fill_vectors() -> dict:
+    rng = random.Random(13)
+    photo = photo_command().fill
+    shapes = [
+        ("square_with_hole", (((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)),
+                              ((4.0, 4.0), (6.0, 4.0), (6.0, 6.0), (4.0, 6.0))), 80.0, 0.2),
+        ("photo", photo.rings, photo.alpha, photo.s),
+        ("u_shape_clockwise", (((0.0, 0.0), (0.0, 6.0), (1.0, 6.0), (1.0, 1.0), (3.0, 1.0), (3.0, 6.0), (4.0, 6.0),
+                                (4.0, 0.0)),), 50.0, 0.5),
+        ("triangle_duplicate_vertex_and_spike", (((0.1, 0.2), (0.1, 0.2), (3.3, 0.7), (1.7, 2.9), (1.7, 4.0),
+                                                  (1.7, 2.9)),), 1e4, 0.0),
+        ("two_islands", (((-5.0, -5.0), (-1.0, -5.0), (-3.0, -1.0)), ((1.0, 1.0), (5.0, 1.0), (5.0, 5.0), (1.0, 5.0))),
+         0.0, 1.0),
+    ]
+    cases = []
+    for name, rings, alpha, s in shapes:
+        pts = {(x, y) for ring in rings for x, y in ring}  # on the vertices
+        for ring in rings:  # on and next to the edges' midpoints, and on the horizontal lines of the vertices
+            for k in range(len(ring)):
+                (x1, y1), (x2, y2) = ring[k], ring[(k + 1) % len(ring)]
+                mx, my = x1 + 0.5 * (x2 - x1), y1 + 0.5 * (y2 - y1)
+                pts |= {(mx, my), (math.nextafter(mx, math.inf), my), (mx, math.nextafter(my, -math.inf)),
+                        (mx + 0.05, my + 0.05), (mx - 0.3, y1)}
+        xs = [x for ring in rings for x, _ in ring]
+        ys = [y for ring in rings for _, y in ring]
+        x0, x1, y0, y1 = min(xs) - 2.0, max(xs) + 2.0, min(ys) - 2.0, max(ys) + 2.0
+        for _ in range(60):
+            pts.add((rng.uniform(x0, x1), rng.uniform(y0, y1)))
+        pts |= {(x0 - 1e3, y0), (0.1 + 0.2, 0.30000000000000004), (-0.0, -0.0)}
+        f = FillFollower(Fill(rings, alpha, s), 2.0, 0.2)
+        steps = []
+        for x, y in sorted(pts):
+            state = np.zeros(NFIELDS)
+            state[0], state[1] = x, y
+            steps.append({"position": [x, y], "inside": inside(rings, x, y), "nearest": list(nearest_point(rings, x, y)),
+                          "control": control_list(f.control(state, 0))})
+        cases.append({"name": name, "rings": [[list(v) for v in ring] for ring in rings], "alpha": alpha, "s": s,
+                      "beta": 2.0, "mu": 0.2, "steps": steps})
+    assert any(st["inside"] for c in cases for st in c["steps"]) and not all(st["inside"] for c in cases for st in c["steps"])
+
+    crossing = [
+        [[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]],  # bow-tie
+        [square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)],
+        [square(0.0, 0.0, 1.0), square(1.0, 1.0, 1.0)],  # touching at a vertex
+        [square(0.0, 0.0, 10.0), square(4.0, 4.0, 2.0)],  # a hole
+        [[[0.0, 0.0], [4.0, 0.0], [2.0, 0.0], [2.0, 3.0]]],  # collinear spike
+        [[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, 0.0], [3.0, -1.0], [1.0, -1.0]]],  # a vertex on an edge
+        [[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, 1e-300], [3.0, -1.0], [1.0, -1.0]]],  # just across
+        [[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, -1e-300], [3.0, -1.0], [1.0, -1.0]]],  # just outside
+        [[[0.1, 0.1], [0.7, 0.1], [0.7, 0.30000000000000004]], [[0.30000000000000004, 0.1], [0.5, -0.2], [0.2, -0.2]]],
+        [[list(v) for v in ring] for ring in photo.rings],
+    ]
+    for _ in range(30):  # random quadrilaterals and triangles: some cross, some do not
+        crossing.append([[[round(rng.uniform(-1, 1), rng.randint(1, 17)), round(rng.uniform(-1, 1), rng.randint(1, 17))]
+                          for _ in range(rng.choice([3, 4, 5]))] for _ in range(rng.choice([1, 2]))])
+    cross_cases = [{"rings": rings, "cross": edges_cross([[tuple(v) for v in ring] for ring in rings])}
+                   for rings in crossing]
+    assert any(c["cross"] for c in cross_cases) and not all(c["cross"] for c in cross_cases)
+    return {"followers": cases, "edges_cross": cross_cases}
+
+
+# ----------------------------------------------------------------------------------------------------------
 # repr(float)
 
 def float_reprs() -> list:
@@ -489,6 +681,7 @@ def main() -> None:
     payloads = {v["name"]: bytes.fromhex(v["payload_hex"]) for v in vectors}
     write("command_sequences.json", {"secret_hex": SECRET.hex(), "sequences": follower_sequences(payloads)})
     write("route.json", route_vectors())
+    write("fill.json", fill_vectors())
     write("float_repr.json", float_reprs())
 
 

@@ -19,11 +19,16 @@ use std::collections::BTreeMap;
 use hmac::{Hmac, Mac};
 use sha2::Sha256;
 
+use crate::fill::{edges_cross, Ring};
+
 pub const VERSION: i64 = 1;
 pub const MAX_BYTES: usize = 64 * 1024;
 pub const MAX_CLASSES: usize = 64;
 pub const MAX_ROUTE: usize = 32;
 pub const MAX_COORD: f64 = 1e6;
+pub const MAX_RINGS: usize = 32;
+/// Over all rings of a fill shape: the crossing check is O(V^2) in every agent.
+pub const MAX_VERTICES: usize = 512;
 /// Containers nested deeper than this are refused. CPython has no fixed limit: its RecursionError comes at
 /// the interpreter's recursion limit (1000) minus the frames already on the stack, 993 levels when decode is
 /// called from a shallow stack in CPython 3.11, fewer from deeper ones. A legitimate command nests 5 deep
@@ -617,6 +622,17 @@ pub struct ParticleClass {
     pub route: Vec<Waypoint>,
 }
 
+/// The silhouette the swarm fills (agent/fill.py): `rings` of (x, y) vertices [m], closed implicitly,
+/// even-odd (a ring inside another is a hole), no two edges crossing. A particle outside is pulled towards
+/// the nearest boundary point with gain `alpha` [1/s^2] over ramp `s` [m] (eq. 6.2); inside, no body force.
+/// Equality is Python's: vertex by vertex with `==` (0.0 == -0.0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fill {
+    pub rings: Vec<Ring>,
+    pub alpha: f64,
+    pub s: f64,
+}
+
 #[derive(Clone, Debug)]
 pub struct GestureCommand {
     pub seq: u64,
@@ -628,6 +644,8 @@ pub struct GestureCommand {
     pub mu: f64,
     /// Free-form annotations (an object), for logs only.
     pub extra: Json,
+    /// The shape to fill; with it, routes are not followed (classes still label the particles).
+    pub fill: Option<Fill>,
     /// The gesture and class names as Python strs, for an exact `==`.
     texts: Vec<PyStr>,
 }
@@ -642,6 +660,7 @@ impl PartialEq for GestureCommand {
             && self.beta == o.beta
             && self.mu == o.mu
             && py_eq(&self.extra, &o.extra)
+            && self.fill == o.fill
     }
 }
 
@@ -661,16 +680,20 @@ fn only<'a>(v: &'a Json, allowed: &[&str]) -> Result<&'a Obj, &'static str> {
 
 /// `_num`: an int or float (not bool) within [lo, hi], as a float.
 fn num(d: &Obj, k: &str, lo: f64, hi: f64) -> Result<Option<f64>, &'static str> {
-    let v = match get(d, k) {
-        None => return Ok(None),
-        Some(Json::Float(f)) => *f,
-        // Exact for every int in range (the bounds are at most 1e6); anything beyond i128 is out of range.
-        // (Python raises OverflowError, not CommandRejected, for an int beyond the float range.)
-        Some(Json::Int(n)) => n.small().ok_or(MALFORMED)? as f64,
-        Some(_) => return Err(MALFORMED),
+    get(d, k).map(|v| number(v, lo, hi)).transpose()
+}
+
+/// `_num` on a present value.
+fn number(v: &Json, lo: f64, hi: f64) -> Result<f64, &'static str> {
+    let v = match v {
+        Json::Float(f) => *f,
+        // Exact for every int in range (the bounds are at most 1e6); anything beyond i128 is out of range,
+        // as Python finds it (an int beyond 2**1023 is refused as "malformed" before float() overflows).
+        Json::Int(n) => n.small().ok_or(MALFORMED)? as f64,
+        _ => return Err(MALFORMED),
     };
     if lo <= v && v <= hi {
-        Ok(Some(v))
+        Ok(v)
     } else {
         Err(MALFORMED)
     }
@@ -709,7 +732,7 @@ fn list(v: Option<&Json>, max: usize) -> Result<&[Json], &'static str> {
 
 /// `parse_body`: the typed command from a verified body; every failure is "malformed".
 pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
-    let body = only(body, &["seq", "gesture", "n_agents", "classes", "beta", "mu", "extra"])?;
+    let body = only(body, &["seq", "gesture", "n_agents", "classes", "beta", "mu", "extra", "fill"])?;
     let seq = int_in(get(body, "seq"), 0, 1 << 62)?;
     let n_agents = int_in(get(body, "n_agents"), 1, 100_001)?;
     let gesture = short_str(get(body, "gesture"))?;
@@ -744,6 +767,7 @@ pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
         Some(e @ Json::Object(_)) => e.clone(),
         Some(_) => return Err(MALFORMED),
     };
+    let fill = get(body, "fill").map(parse_fill).transpose()?;
     Ok(GestureCommand {
         seq,
         gesture: to_string(&gesture),
@@ -752,8 +776,41 @@ pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
         beta: required(body, "beta", 0.0, 1e4)?,
         mu: required(body, "mu", 0.0, 1e4)?,
         extra,
+        fill,
         texts,
     })
+}
+
+/// `_fill`: 1..=MAX_RINGS rings of at least 3 [x, y] vertices, at most MAX_VERTICES in all, no two edges
+/// crossing; alpha in [0, 1e4], s in [0, MAX_COORD]; no other key. Every failure is "malformed".
+fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
+    let f = only(f, &["rings", "alpha", "s"])?;
+    let mut rings = Vec::new();
+    let mut total = 0;
+    for ring in list(get(f, "rings"), MAX_RINGS)? {
+        let ring = match ring {
+            Json::Array(vs) if vs.len() >= 3 => vs,
+            _ => return Err(MALFORMED),
+        };
+        total += ring.len();
+        if total > MAX_VERTICES {
+            return Err(MALFORMED);
+        }
+        let mut vs = Vec::with_capacity(ring.len());
+        for v in ring {
+            match v {
+                Json::Array(xy) if xy.len() == 2 => {
+                    vs.push((number(&xy[0], -MAX_COORD, MAX_COORD)?, number(&xy[1], -MAX_COORD, MAX_COORD)?))
+                }
+                _ => return Err(MALFORMED),
+            }
+        }
+        rings.push(vs);
+    }
+    if edges_cross(&rings) {
+        return Err(MALFORMED);
+    }
+    Ok(Fill { rings, alpha: required(f, "alpha", 0.0, 1e4)?, s: required(f, "s", 0.0, MAX_COORD)? })
 }
 
 /// Verify and parse an envelope from the network: Err("malformed" | "version" | "signature").
@@ -828,6 +885,31 @@ mod tests {
         assert_eq!(decode(&vec![b' '; MAX_BYTES + 1], SECRET), Err(MALFORMED));
         let deep = format!("{}{}", "[".repeat(10000), "]".repeat(10000));
         assert_eq!(decode(deep.as_bytes(), SECRET), Err(MALFORMED));
+    }
+
+    #[test]
+    fn fill_shape() {
+        let with = |fill: &str| BODY.replacen("\"extra\":{}", &format!("\"extra\":{{}},\"fill\":{fill}"), 1);
+        let body = with(r#"{"alpha":80,"rings":[[[0,0],[10.5,0.0],[12.3456,-1e-05]]],"s":0.2}"#);
+        let cmd = decode(&sign(&body), SECRET).unwrap();
+        let fill = cmd.fill.as_ref().unwrap();
+        assert_eq!(fill.rings, vec![vec![(0.0, 0.0), (10.5, 0.0), (12.3456, -1e-05)]]);
+        assert_eq!((fill.alpha, fill.s), (80.0, 0.2));
+        // ints stay ints in the canonical text the signature covers
+        assert_eq!(canonical(&parse(body.as_bytes()).unwrap()), body.as_bytes());
+        // Python's equality: 0 == 0.0, so the same shape written with floats is the same command
+        let floats = with(r#"{"alpha":80.0,"rings":[[[0.0,0.0],[10.5,0],[12.3456,-1e-05]]],"s":0.2}"#);
+        assert!(decode(&sign(&floats), SECRET).unwrap() == cmd);
+        assert!(decode(&sign(BODY), SECRET).unwrap().fill.is_none());
+        for bad in [
+            r#"{"alpha":80,"rings":[[[0,0],[1,1],[1,0],[0,1]]],"s":0.2}"#, // bow-tie
+            r#"{"alpha":80,"rings":[[[0,0],[1,1]]],"s":0.2}"#,
+            r#"{"alpha":80,"rings":[[[0,0],[1,1],[true,0]]],"s":0.2}"#,
+            r#"{"alpha":80,"rings":[[[0,0],[1,1],[0,1,2]]],"s":0.2}"#,
+            r#"{"alpha":80,"r":1,"rings":[[[0,0],[1,0],[0,1]]],"s":0.2}"#, // keys sorted: canonical
+        ] {
+            assert_eq!(decode(&sign(&with(bad)), SECRET), Err(MALFORMED), "{bad}");
+        }
     }
 
     #[test]

@@ -8,7 +8,8 @@ use std::collections::HashSet;
 
 use serde_json::{Map, Value};
 
-use crate::command::{self, GestureCommand, Waypoint};
+use crate::command::{self, Fill, GestureCommand, Waypoint};
+use crate::fill::{inside, nearest_point, Ring};
 use crate::sph::{Control, State, X, Y};
 
 /// Largest-remainder split of n particles over the class shares (deterministic).
@@ -112,10 +113,74 @@ impl RouteFollower {
     }
 }
 
+/// The fill law (agent/fill.py): no body force inside the shape, eq. 6.2 towards the nearest boundary point
+/// outside it (r = 0, so the pull fades to nothing on the boundary).
+#[derive(Clone, Debug)]
+pub struct FillFollower {
+    pub rings: Vec<Ring>,
+    pub alpha: f64,
+    pub s: f64,
+    pub beta: f64,
+    pub mu: f64,
+}
+
+impl FillFollower {
+    pub fn new(fill: &Fill, beta: f64, mu: f64) -> Self {
+        FillFollower { rings: fill.rings.clone(), alpha: fill.alpha, s: fill.s, beta, mu }
+    }
+
+    pub fn control(&self, x: f64, y: f64) -> Control {
+        let (wx, wy, alpha) = if inside(&self.rings, x, y) {
+            (x, y, 0.0)
+        } else {
+            let (px, py) = nearest_point(&self.rings, x, y);
+            (px, py, self.alpha)
+        };
+        Control { wx, wy, r: 0.0, s: self.s, alpha, beta: self.beta, mu: self.mu, push_x: 0.0, push_y: 0.0 }
+    }
+}
+
+/// What an agent follows (agent/route.py `follower`): the command's shape if it has one, else its class'
+/// route.
+#[derive(Clone, Debug)]
+pub enum Follower {
+    Route(RouteFollower),
+    Fill(FillFollower),
+}
+
+impl Follower {
+    pub fn for_command(cmd: &GestureCommand, particle_class: usize) -> Self {
+        match &cmd.fill {
+            Some(fill) => Follower::Fill(FillFollower::new(fill, cmd.beta, cmd.mu)),
+            None => Follower::Route(RouteFollower::new(
+                cmd.classes[particle_class].route.clone(),
+                cmd.beta,
+                cmd.mu,
+                (0.0, 0.0),
+            )),
+        }
+    }
+
+    pub fn control(&mut self, x: f64, y: f64) -> Control {
+        match self {
+            Follower::Route(f) => f.control(x, y),
+            Follower::Fill(f) => f.control(x, y),
+        }
+    }
+
+    /// The waypoint reached so far; a shape has none (reported as waypoint 0).
+    pub fn index(&self) -> usize {
+        match self {
+            Follower::Route(f) => f.index,
+            Follower::Fill(_) => 0,
+        }
+    }
+}
+
 /// Authentic but old commands remembered as replays, at most this many.
 const MAX_REPLAYS: usize = 64;
 
-/// The agent's controller: accepts signed commands, follows its class' route.
+/// The agent's controller: accepts signed commands, follows the command's shape or its class' route.
 pub struct CommandFollower {
     secret: Vec<u8>,
     agent_id: u32,
@@ -124,7 +189,7 @@ pub struct CommandFollower {
     pending: Option<GestureCommand>,
     current_payload: Option<Vec<u8>>,
     replays: HashSet<Vec<u8>>,
-    follower: Option<RouteFollower>,
+    follower: Option<Follower>,
     particle_class: u16,
     accepted: u64,
     first_command_at: Option<f64>,
@@ -191,7 +256,7 @@ impl CommandFollower {
             let k = class_of(u64::from(self.agent_id), cmd.n_agents, &shares);
             // At most 64 classes (command::MAX_CLASSES), so the class fits the record's u16.
             self.particle_class = k as u16;
-            self.follower = Some(RouteFollower::new(cmd.classes[k].route.clone(), cmd.beta, cmd.mu, (0.0, 0.0)));
+            self.follower = Some(Follower::for_command(&cmd, k));
             self.command = Some(cmd);
         }
         match self.follower.as_mut() {
@@ -209,7 +274,7 @@ impl CommandFollower {
         let mut m = Map::new();
         m.insert("commands_accepted".into(), self.accepted.into());
         m.insert("particle_class".into(), self.particle_class.into());
-        m.insert("waypoint_index".into(), self.follower.as_ref().map_or(-1, |f| f.index as i64).into());
+        m.insert("waypoint_index".into(), self.follower.as_ref().map_or(-1, |f| f.index() as i64).into());
         m.insert("command_seq".into(), self.command.as_ref().map_or(-1, |c| c.seq as i64).into());
         m.insert("first_command_at".into(), self.first_command_at.map_or(Value::Null, Value::from));
         m

@@ -7,7 +7,8 @@
 use std::path::PathBuf;
 
 use fluidswarm_agent::command::{self, Json};
-use fluidswarm_agent::route::{class_counts, class_of, CommandFollower, RouteFollower};
+use fluidswarm_agent::fill::{edges_cross, inside, nearest_point, Ring};
+use fluidswarm_agent::route::{class_counts, class_of, CommandFollower, FillFollower, RouteFollower};
 use fluidswarm_agent::sph::Control;
 use fluidswarm_agent::wire;
 use serde_json::Value;
@@ -65,6 +66,27 @@ fn same_control(c: &Control, want: &Value, what: &str) {
     assert_eq!(want.len(), 9);
     for (k, (got, w)) in control_fields(c).iter().zip(want).enumerate() {
         same_f64(*got, w, &format!("{what} field {k}"));
+    }
+}
+
+fn rings(v: &Value) -> Vec<Ring> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|ring| ring.as_array().unwrap().iter().map(|p| (f(&p[0]), f(&p[1]))).collect())
+        .collect()
+}
+
+fn same_rings(got: &[Ring], want: &Value, what: &str) {
+    let want = want.as_array().unwrap();
+    assert_eq!(got.len(), want.len(), "{what}: rings");
+    for (k, (ring, w)) in got.iter().zip(want).enumerate() {
+        let w = w.as_array().unwrap();
+        assert_eq!(ring.len(), w.len(), "{what}: ring {k}");
+        for (j, (&(x, y), p)) in ring.iter().zip(w).enumerate() {
+            same_f64(x, &p[0], &format!("{what} ring {k} vertex {j} x"));
+            same_f64(y, &p[1], &format!("{what} ring {k} vertex {j} y"));
+        }
     }
 }
 
@@ -127,6 +149,15 @@ fn commands() {
                         opt_f64(w.beta, &want[5], &format!("{name} waypoint beta"));
                         opt_f64(w.mu, &want[6], &format!("{name} waypoint mu"));
                     }
+                }
+                match (&cmd.fill, expect.get("fill")) {
+                    (None, None) => {}
+                    (Some(fill), Some(want)) => {
+                        same_rings(&fill.rings, &want["rings"], name);
+                        same_f64(fill.alpha, &want["alpha"], &format!("{name} fill alpha"));
+                        same_f64(fill.s, &want["s"], &format!("{name} fill s"));
+                    }
+                    (got, want) => panic!("{name}: fill {got:?}, want {want:?}"),
                 }
             }
         }
@@ -203,6 +234,35 @@ fn route_followers() {
             same_control(&c, &step["control"], &what);
             assert_eq!(follower.index as u64, step["index"].as_u64().unwrap(), "{what}");
         }
+    }
+}
+
+#[test]
+fn fill_followers() {
+    let file = load("fill.json");
+    let cases = file["followers"].as_array().unwrap();
+    assert!(!cases.is_empty());
+    for case in cases {
+        let name = case["name"].as_str().unwrap();
+        let fill = command::Fill { rings: rings(&case["rings"]), alpha: f(&case["alpha"]), s: f(&case["s"]) };
+        let follower = FillFollower::new(&fill, f(&case["beta"]), f(&case["mu"]));
+        for (j, step) in case["steps"].as_array().unwrap().iter().enumerate() {
+            let what = format!("{name} step {j} at {}", step["position"]);
+            let (x, y) = (f(&step["position"][0]), f(&step["position"][1]));
+            assert_eq!(Value::Bool(inside(&fill.rings, x, y)), step["inside"], "{what}");
+            let (px, py) = nearest_point(&fill.rings, x, y);
+            same_f64(px, &step["nearest"][0], &what);
+            same_f64(py, &step["nearest"][1], &what);
+            same_control(&follower.control(x, y), &step["control"], &what);
+        }
+    }
+}
+
+#[test]
+fn fill_edges_cross() {
+    let file = load("fill.json");
+    for (k, case) in file["edges_cross"].as_array().unwrap().iter().enumerate() {
+        assert_eq!(Value::Bool(edges_cross(&rings(&case["rings"]))), case["cross"], "case {k}: {}", case["rings"]);
     }
 }
 

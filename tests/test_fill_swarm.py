@@ -1,0 +1,74 @@
+"""A native swarm following a fill command (the silhouette as rings, agent/fill.py) equals the reference drivers.
+
+The shape is an annulus, so the command carries an outer ring and a hole: agents start partly outside the
+vessel (in the hole and beyond the outer edge) and pull themselves in by the fill law, each deciding from its
+own position only. The compiled agents (agent/native/src/fill.rs, route.rs) must land where the Python
+oracle (agent/route.py FillFollower through followers_for) puts them, to rounding.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from agent import keys
+from agent.fill import inside
+from agent.launcher import Launcher, run_swarm
+from agent.route import followers_for
+from agent.sph.particle import X, Y
+from agent.sph.reference import PerParticleDriver, VectorisedDriver
+from coordinator.imitation_setup import prepare_observation
+
+N_AGENTS = 16
+STEPS = 150
+
+
+def annulus_setup():
+    yy, xx = np.mgrid[0:120, 0:120]
+    r = np.hypot(xx - 60, yy - 60)
+    mask = (r < 50) & (r > 22)
+    return prepare_observation(SimpleNamespace(mask=mask, label="annulus", kind="hand"), N_AGENTS, controller="fill")
+
+
+def test_native_swarm_fills_a_shape_with_a_hole_like_the_reference():
+    im = annulus_setup()
+    cmd, setup = im.command, im.setup
+    assert cmd.fill is not None and len(cmd.fill.rings) == 2  # the outer boundary and the hole
+    start = setup.states[:, [X, Y]]
+    outside = [not inside(cmd.fill.rings, x, y) for x, y in start]
+    assert 0 < sum(outside) < N_AGENTS  # the law has both branches to decide
+
+    stop = threading.Event()
+    with Launcher(commands=True, agent_timeout=15.0) as la:
+        payload = cmd.encode(bytes.fromhex(la.secret))
+
+        def coordinator():  # the coordinator republishes its current command
+            while not stop.is_set():
+                la.session.put(keys.command_key(la.run), payload)
+                time.sleep(0.05)
+
+        t = threading.Thread(target=coordinator, daemon=True)
+        t.start()
+        try:
+            res = run_swarm(setup, STEPS, launcher=la)
+        finally:
+            stop.set()
+            t.join(10)
+
+    got = np.array([res.finals[int(i)]["state"] for i in setup.ids])
+    vec = VectorisedDriver(setup.ids, setup.states, followers_for(cmd, setup.ids), setup.params).run(STEPS)
+    per = PerParticleDriver(setup.ids, setup.states, followers_for(cmd, setup.ids), setup.params).run(STEPS)
+    err_vec = np.abs(got[:, [X, Y]] - vec[:, [X, Y]]).max()
+    err_per = np.abs(got[:, [X, Y]] - per[:, [X, Y]]).max()
+    inside_end = sum(inside(cmd.fill.rings, x, y) for x, y in got[:, [X, Y]])
+    print(f"fill swarm: max |native - vectorised| {err_vec:.2e} m, |native - per-particle| {err_per:.2e} m; "
+          f"inside {N_AGENTS - sum(outside)} -> {inside_end} of {N_AGENTS}")
+    assert err_vec <= 1e-9 and err_per <= 1e-9
+    assert np.abs(got[:, [X, Y]] - start).max() > 1.0  # the command moved them
+    assert inside_end > N_AGENTS - sum(outside)  # and the shape drew them in
+    for i in setup.ids:
+        r = res.finals[int(i)]
+        assert (r["command_seq"], r["particle_class"], r["waypoint_index"]) == (cmd.seq, 0, 0), r
