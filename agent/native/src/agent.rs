@@ -186,6 +186,8 @@ pub struct Agent {
     ahead_senders: HashSet<u32>,
     fresh: HashMap<u32, (Instant, State)>,
     clock: Option<u64>,
+    /// ctl/end: the launcher saw the formation settle; finish at this step (capped by the spec's steps)
+    end: Option<u64>,
     last_step_done: Instant,
     step: u32,
     started: bool,
@@ -232,6 +234,7 @@ impl Agent {
             ahead_senders: HashSet::new(),
             fresh: HashMap::new(),
             clock: None,
+            end: None,
             last_step_done: Instant::now(),
             step: 0,
             started: false,
@@ -252,6 +255,14 @@ impl Agent {
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^= z >> 31;
         (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// The step after which the agent stops: the spec's, or an earlier one the launcher announced (ctl/end).
+    fn last_step(&self) -> u32 {
+        match self.end {
+            Some(e) if e < self.spec.steps as u64 => e as u32,
+            _ => self.spec.steps,
+        }
     }
 
     // ---- message handling --------------------------------------------------------------------------
@@ -275,6 +286,10 @@ impl Agent {
                     let mut b = [0u8; 8];
                     b.copy_from_slice(&payload);
                     self.clock = Some(u64::from_le_bytes(b));
+                } else if key.ends_with("/end") && payload.len() == 8 {
+                    let mut b = [0u8; 8];
+                    b.copy_from_slice(&payload);
+                    self.end = Some(u64::from_le_bytes(b));
                 }
                 Ok(())
             }
@@ -745,7 +760,7 @@ impl Agent {
 
     fn run_lockstep(&mut self) -> Result<(), Halt> {
         let mut rows: Vec<State> = Vec::with_capacity(32);
-        while self.step < self.spec.steps {
+        while self.step < self.last_step() {
             // An isolated particle must not run ahead of the swarm (the launcher's clock).
             if self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) {
                 self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = true;
@@ -805,7 +820,7 @@ impl Agent {
         let period = Duration::from_secs_f64(1.0 / self.spec.rate);
         let max_age = Duration::from_secs_f64(self.spec.max_age);
         let mut due = Instant::now();
-        while self.step < self.spec.steps {
+        while self.step < self.last_step() {
             self.publish();
             self.drain(0.0)?;
             let now = Instant::now();
