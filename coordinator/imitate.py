@@ -113,10 +113,12 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     fid = fidelity(im.mask, im.transform, pos)
     rows, cols = im.mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
-    wps = None if sequence else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
+    fill = im.command.fill
+    wps = None if sequence or fill else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
     png = plot_formation(out / f"{name}_formation.png", pos, classes, [c.name for c in im.command.classes],
                          f"{Path(input_path).name}: {len(ids)} agents, iou {fid.iou:.2f}",
-                         background=im.mask.astype(float), extent=extent, waypoints=wps)
+                         background=im.mask.astype(float), extent=extent, waypoints=wps,
+                         outline=fill.rings if fill is not None and not sequence else ())
     settled = watch is not None and watch.settled_step is not None
     last_step = max((int(r.get("steps", 0)) for r in done.values()), default=0)
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
