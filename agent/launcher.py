@@ -43,6 +43,9 @@ _PR_SET_PDEATHSIG = 1
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
 CLOCK_PERIOD = 0.02
 CLOCK_REPEAT = 1.0
+# s an exited agent's final report is still awaited, if its exit code says it sent one
+REPORT_GRACE = 10.0
+REPORTED = (0, 3, 4)
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
 AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
 
@@ -367,9 +370,21 @@ class Launcher:
     def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
         """Until every agent in `ids` has reported or exited."""
         deadline = time.monotonic() + timeout
+        exited: dict[int, float] = {}  # id -> when its process was first seen ended without its report here
+
+        def waiting(i: int, now: float) -> bool:
+            if i in self.swarm.finals:
+                return False
+            code = self.swarm.procs[i].poll()
+            if code is None:
+                return True
+            # An agent that reported (done 0, fell behind 3, stopped 4) waited for the router to hold its
+            # report before it exited, but this process may not have handled it yet (1000 reports at once).
+            return code in REPORTED and now - exited.setdefault(i, now) < REPORT_GRACE
+
         with self.swarm.changed:
             while True:
-                pending = [i for i in ids if i not in self.swarm.finals and self.swarm.procs[i].poll() is None]
+                pending = [i for i in ids if waiting(i, time.monotonic())]
                 if not pending:
                     return
                 left = deadline - time.monotonic()

@@ -35,7 +35,9 @@ THIN_PART = 0.5  # erode a thin part by at most this fraction of its half-width
 ALPHA, RAMP = 80.0, 0.2  # the wall: 80 1/s^2 over 0.2 m (at most 16 m/s^2 back into the shape)
 BETA, MU = 2.0, 0.2
 INITIAL_SPACING = 1.2  # m, the starting lattice at the palm / torso centre
-MIN_PIXELS_PER_PARTICLE = 2  # a smaller silhouette cannot say where N particles go
+MIN_PIXELS = 20  # a smaller silhouette does not say what shape it is (a coarse one is fine: a 64 px clip's
+                 # person of ~200 pixels still outlines 300 particles; where a spacing is under a pixel the
+                 # vessel is the whole silhouette)
 MIN_FILLABLE = 0.25  # the vessel must keep at least this share of the silhouette (else: too thin / fragmented)
 
 
@@ -69,9 +71,9 @@ def vessel(mask: np.ndarray, erode_px: float) -> np.ndarray:
 def shape_rings(mask: np.ndarray, transform: ImageToDomain, n_agents: int) -> tuple[tuple[tuple[float, float], ...], ...]:
     """The vessel as polygons in domain metres (outer boundaries and holes), at most MAX_VERTICES vertices."""
     area_px = int(np.count_nonzero(mask))
-    if area_px < MIN_PIXELS_PER_PARTICLE * n_agents:
-        raise ShapeError(f"the silhouette has {area_px} pixels, too few for {n_agents} particles "
-                         f"(at least {MIN_PIXELS_PER_PARTICLE} per particle)")
+    if area_px < MIN_PIXELS:
+        raise ShapeError(f"the silhouette has {area_px} pixels: too small to say what shape to fill "
+                         f"(at least {MIN_PIXELS})")
     erode_px = 0.5 * spacing() / transform.scale
     v = vessel(mask, erode_px).astype(np.uint8)
     if np.count_nonzero(v) < MIN_FILLABLE * area_px:
@@ -84,19 +86,23 @@ def shape_rings(mask: np.ndarray, transform: ImageToDomain, n_agents: int) -> tu
     contours = contours[:MAX_RINGS]
     if not contours:
         raise ShapeError(f"the silhouette is too small or too thin for {n_agents} particles")
-    eps = 0.5
-    while True:
-        rings = []
+    for eps in (1.0, 1.5, 2.25, 3.4, 5.0, 7.6):
+        rings: list[tuple[tuple[float, float], ...]] = []
         for c in contours:
-            poly = cv2.approxPolyDP(c, eps, True).reshape(-1, 2).astype(float)
-            if len(poly) >= 3:
-                xy = np.round(transform.to_domain(poly + 0.5), 4)  # pixel centres; 0.1 mm is plenty
-                rings.append(tuple((float(x), float(y)) for x, y in xy))
-        if rings and sum(len(r) for r in rings) <= MAX_VERTICES and not edges_cross(rings):
+            # approxPolyDP may make a simplified ring cross itself or a neighbour; the traced contour
+            # never does, so fall back towards it, ring by ring.
+            for e in (eps, 0.7 * eps, 0.5, 0.3, 0.0):
+                poly = (cv2.approxPolyDP(c, e, True) if e > 0 else c).reshape(-1, 2).astype(float)
+                if len(poly) < 3:
+                    break
+                xy = transform.to_domain(poly + 0.5)  # pixel centres, exact with transform_for's scale
+                ring = tuple((float(x), float(y)) for x, y in xy)
+                if not edges_cross(rings + [ring]):
+                    rings.append(ring)
+                    break
+        if rings and sum(len(r) for r in rings) <= MAX_VERTICES:
             return tuple(rings)
-        eps *= 1.5
-        if eps > 20:
-            raise ShapeError("the silhouette's outline cannot be simplified into a valid polygon")
+    raise ShapeError(f"the silhouette's outline needs more than {MAX_VERTICES} vertices")
 
 
 def fill_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, seq: int = 1,

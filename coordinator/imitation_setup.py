@@ -44,8 +44,14 @@ DEFAULT_CONTROLLER = "fill"
 
 
 def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDomain:
-    """The image -> domain map, fixed by the first frame: the fill controller gives each particle more area."""
-    return fit_transform(mask, n_agents, FILL_AREA if controller == "fill" else AREA_PER_PARTICLE)
+    """The image -> domain map, fixed by the first frame: the fill controller gives each particle more area,
+    and its scale is a multiple of 2^-16 m/pixel so the fill shape's vertices (pixel corners) are exact
+    binary fractions: a contour that touches itself stays touching, never crosses by a rounding error."""
+    if controller != "fill":
+        return fit_transform(mask, n_agents, AREA_PER_PARTICLE)
+    t = fit_transform(mask, n_agents, FILL_AREA)
+    scale = round(t.scale * 2**16) / 2**16
+    return ImageToDomain(scale=scale, x0=0.0, y0=mask.shape[0] * scale)
 
 
 def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1) -> GestureCommand:

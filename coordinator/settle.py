@@ -12,6 +12,7 @@ complete. The step count given to the run stays the cap.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -25,8 +26,9 @@ from fluidswarm.recording.fidelity import fidelity
 class SettleRule:
     """check_seconds [s simulated] between samples; window_seconds [s] over which the IoU may change by at
     most iou_change (relative, 0.01 = 1 %); speed [m/s] the mean speed below which the swarm is at rest;
-    min_seconds [s] before which nothing has settled; end_margin [steps] between the decision and the
-    agents' last step (they are at most a few steps apart in lockstep)."""
+    min_seconds [s] before which nothing has settled; the agents' last step is the fastest one seen plus
+    end_margin [steps] plus the steps the swarm makes in end_lead_seconds [s wall] (ctl/end must reach every
+    agent before it gets there: a 60-agent swarm makes ~180 steps/s)."""
 
     check_seconds: float = 0.5
     window_seconds: float = 1.0
@@ -34,6 +36,7 @@ class SettleRule:
     speed: float = 0.3
     min_seconds: float = 2.0
     end_margin: int = 5
+    end_lead_seconds: float = 0.5
 
 
 class SettleWatch:
@@ -62,6 +65,7 @@ class SettleWatch:
         every = max(1, round(self.rule.check_seconds / self.dt))
         window = max(1, round(self.rule.window_seconds / self.dt))
         next_step = every
+        walls: list[tuple[float, int]] = []  # (wall time, fastest step) per sample: the swarm's pace
         while not self._stop.wait(0.05):
             rows = list(self.launcher.motion.values())
             if not rows:
@@ -74,10 +78,15 @@ class SettleWatch:
             iou = fidelity(self.mask, self.transform, m[:, 1:3]).iou
             speed = float(np.hypot(m[:, 3], m[:, 4]).mean())
             self.samples.append((step, iou, speed))
+            now = time.monotonic()
+            walls.append((now, int(m[:, 0].max())))
             if self._settled(step, window):
                 self.settled_step = step
-                self.settled_wall_seconds = time.monotonic() - self._t0
-                self.launcher.end_at(int(m[:, 0].max()) + self.rule.end_margin)
+                self.settled_wall_seconds = now - self._t0
+                (t0, s0), (t1, s1) = walls[max(0, len(walls) - 4)], walls[-1]
+                rate = (s1 - s0) / (t1 - t0) if t1 > t0 else 0.0
+                lead = self.rule.end_margin + math.ceil(rate * self.rule.end_lead_seconds)
+                self.launcher.end_at(s1 + lead)
                 return
 
     def _settled(self, step: int, window: int) -> bool:

@@ -68,8 +68,9 @@ def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path):
 
 
 def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(tmp_path):
-    ids, pos, fig = imitate(WAVE2, tmp_path / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS))
-    im = prepare_input(WAVE2, 48, frame=WAVE2_SIDEWAYS)
+    # The region controller (thesis ch. 6): torso and arm classes with routes through the shoulders.
+    ids, pos, fig = imitate(WAVE2, tmp_path / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS), "--controller", "region")
+    im = prepare_input(WAVE2, 48, frame=WAVE2_SIDEWAYS, controller="region")
     assert im.observation.kind == "body" and im.observation.label == "left_side-right_side"
     shares = [c.share for c in im.command.classes]
     names = [im.command.classes[class_of(int(i), 48, shares)].name for i in ids]

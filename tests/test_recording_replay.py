@@ -74,9 +74,10 @@ def test_cli_replay_prints_fidelity_and_paths(recorded, tmp_path, capsys):
     assert main(["replay", str(recorded), "--out", str(tmp_path / "cli"), "--max-frames", "5"]) == 0
     out, err = capsys.readouterr()
     lines = out.splitlines()
-    assert [ln.split("=")[0] for ln in lines[:3]] == ["fidelity_iou", "fidelity_inside", "fidelity_coverage"]
+    assert [ln.split("=")[0] for ln in lines[:4]] == ["fidelity_iou", "fidelity_inside", "fidelity_coverage", "nn_cv"]
     assert all(0.0 <= float(ln.split("=")[1]) <= 1.0 for ln in lines[:3])
-    wrote = [ln.removeprefix("wrote ") for ln in lines[3:]]
+    assert float(lines[3].split("=")[1]) >= 0.0
+    wrote = [ln.removeprefix("wrote ") for ln in lines[4:]]
     assert len(wrote) == 9 and all((tmp_path / "cli").joinpath(p.split("/")[-1]).is_file() for p in wrote)
     assert "replay [" in err  # progress bar on stderr
 

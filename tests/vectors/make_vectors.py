@@ -671,6 +671,11 @@ def float_reprs() -> list:
             values.append(v)
     for _ in range(400):  # decimal-looking values, as coordinates are, across the positional/exponent edges
         values.append(round(rng.uniform(-1, 1) * 10 ** rng.randint(-8, 20), rng.randint(0, 12)))
+    # Binary fractions, as the fill controller's vertices are (multiples of 2^-17 m): many lie exactly halfway
+    # between two shortest candidates, which Python breaks to the even digit (0.87348175048828125 -> ...812).
+    values += [0.87348175048828125, 2.5 * 2**-52 + 1 - 2**-52]
+    for _ in range(400):
+        values.append(rng.randint(1, 2**24) * 2.0 ** rng.randint(-30, 10))
     return [[struct.pack("<d", v).hex(), repr(v)] for v in map(float, values)]
 
 

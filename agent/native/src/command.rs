@@ -488,11 +488,16 @@ pub fn float_repr(v: f64) -> String {
     if v == 0.0 {
         return if v.is_sign_negative() { "-0.0" } else { "0.0" }.to_string();
     }
-    // Rust's `{:e}` prints the same shortest round-trip digits (closest among the shortest) as Python's repr.
+    // Rust's `{:e}` prints the same shortest round-trip digits (closest among the shortest) as Python's repr,
+    // except on an exact tie between two shortest candidates, which Python breaks to the even last digit.
     let sci = format!("{:e}", v.abs());
     let (mantissa, exp) = sci.split_once('e').expect("{:e} has an exponent");
-    let exp: i32 = exp.parse().expect("integer exponent");
-    let digits = mantissa.replace('.', "");
+    let mut exp: i32 = exp.parse().expect("integer exponent");
+    let mut digits = mantissa.replace('.', "");
+    if let Some((even, even_exp)) = tie_to_even(v.abs(), &digits) {
+        digits = even;
+        exp = even_exp;
+    }
     let sign = if v < 0.0 { "-" } else { "" };
     if !(-4..16).contains(&exp) {
         let (first, rest) = digits.split_at(1);
@@ -509,6 +514,42 @@ pub fn float_repr(v: f64) -> String {
     } else {
         format!("{sign}{digits}{}.0", "0".repeat(int_len - digits.len()))
     }
+}
+
+/// When `v`'s exact decimal value lies exactly halfway between two candidates of `shortest`'s length (a
+/// binary fraction such as 0.87348175048828125), the candidate with the even last digit and its exponent.
+fn tie_to_even(v: f64, shortest: &str) -> Option<(String, i32)> {
+    let n = shortest.len();
+    // Exact digits: a double's decimal expansion that ends within n + 40 digits is printed exactly.
+    let exact = format!("{:.*e}", n + 40, v);
+    let (mantissa, exp) = exact.split_once('e')?;
+    let exp: i32 = exp.parse().ok()?;
+    let all = mantissa.replace('.', "");
+    let (lower, rest) = all.split_at(n);
+    if !rest.starts_with('5') || !rest[1..].bytes().all(|b| b == b'0') {
+        return None;
+    }
+    if (lower.as_bytes()[n - 1] - b'0') % 2 == 0 {
+        return Some((lower.to_string(), exp));
+    }
+    // The upper candidate: lower + 1 in its last digit, with the carry.
+    let mut up: Vec<u8> = lower.bytes().collect();
+    let mut k = n;
+    loop {
+        if k == 0 {
+            up.insert(0, b'1');
+            up.pop();
+            return Some((String::from_utf8(up).ok()?, exp + 1));
+        }
+        k -= 1;
+        if up[k] == b'9' {
+            up[k] = b'0';
+        } else {
+            up[k] += 1;
+            break;
+        }
+    }
+    Some((String::from_utf8(up).ok()?, exp))
 }
 
 fn write_str(s: &[u32], out: &mut Vec<u8>) {
