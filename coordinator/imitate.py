@@ -40,7 +40,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
             on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
             frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
             rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0,
-            settle: SettleRule | None = SettleRule()) -> ImitationResult:
+            settle: SettleRule | None = SettleRule(), settle_hold=lambda: False) -> ImitationResult:
     """Imitate one frame of `input_path` (or, with `frame_steps` > 0, the gesture sequence of all its frames,
     each shown for `frame_steps` swarm steps). `sph`/`dt` override the imitation's SPH parameters; `mode`,
     `rate`, `max_age` choose lockstep or asynchronous agents (docs/protocol.md). `launcher_hook(launcher, im)`
@@ -80,7 +80,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
                 max_age=max_age)
             watch = None
             if settle is not None and not sequence:
-                watch = SettleWatch(launcher, im.mask, im.transform, im.setup.params.dt, settle)
+                watch = SettleWatch(launcher, im.mask, im.transform, im.setup.params.dt, settle, settle_hold)
 
             def started(la):
                 t_start[0] = time.monotonic()

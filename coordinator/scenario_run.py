@@ -41,7 +41,9 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
                       on_started=lambda la: watch["injector"].start(), progress=lambda: watch["bar"](),
                       per_agent=drop, frame=None if sc.frame < 0 else sc.frame, frame_steps=sc.frame_steps,
                       sph=sc.sph, dt=sc.dt, mode=sc.sync, rate=sc.async_rate, max_age=sc.async_max_age,
-                      agent_timeout=sc.neighbour_timeout or 5.0)
+                      agent_timeout=sc.neighbour_timeout or 5.0,
+                      # the formation may settle before the failures are due: not before they have all happened
+                      settle_hold=lambda: "injector" not in watch or watch["injector"].busy())
     except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{sc.path}: input {sc.input}: {exc}") from None
     finally:

@@ -43,8 +43,11 @@ class SettleWatch:
     """A thread that ends `launcher`'s run when the formation (seen against `mask` through `transform`)
     has settled. `settled_step`/`settled_wall_seconds` say when (None: it ran to the cap)."""
 
-    def __init__(self, launcher, mask: np.ndarray, transform, dt: float, rule: SettleRule = SettleRule()):
+    def __init__(self, launcher, mask: np.ndarray, transform, dt: float, rule: SettleRule = SettleRule(),
+                 hold=lambda: False):
+        """`hold()` true: not settled whatever the figures (a robustness scenario's failures still to come)."""
         self.launcher, self.mask, self.transform, self.dt, self.rule = launcher, mask, transform, dt, rule
+        self.hold = hold
         self.samples: list[tuple[int, float, float]] = []  # (step, iou, mean speed)
         self.settled_step: int | None = None
         self.settled_wall_seconds: float | None = None
@@ -90,7 +93,7 @@ class SettleWatch:
                 return
 
     def _settled(self, step: int, window: int) -> bool:
-        if step * self.dt < self.rule.min_seconds:
+        if step * self.dt < self.rule.min_seconds or self.hold():
             return False
         _, iou, speed = self.samples[-1]
         before = [s for s in self.samples if s[0] <= step - window]

@@ -22,6 +22,10 @@ class InjectionLog:
     joined: list[int] = field(default_factory=list)
 
 
+# s a run keeps going after its last failure before it may end as settled (recovery is part of the test)
+RECOVERY_SECONDS = 2.0
+
+
 class FailureInjector:
     def __init__(self, launcher, failures, ids, seed: int, coordinator=None, spawn_late=None):
         self.launcher = launcher
@@ -33,6 +37,12 @@ class FailureInjector:
         self.log = InjectionLog()
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True)
+        self._pending = len(self.failures)
+        self._calm_from = 0.0  # monotonic time from which the last failure (a freeze's end included) is past
+
+    def busy(self, recovery: float = RECOVERY_SECONDS) -> bool:
+        """A failure is still to come, or happened (or a frozen agent resumed) less than `recovery` s ago."""
+        return self._pending > 0 or time.monotonic() < self._calm_from + recovery
 
     def start(self) -> None:
         if self.failures:
@@ -64,6 +74,7 @@ class FailureInjector:
                 self.log.frozen.update(victims)
                 self.log.injected.append(f"step {f.at_step}: SIGSTOP agents {victims} for {f.seconds:g} s")
                 threading.Timer(f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]).start()
+                self._calm_from = max(self._calm_from, time.monotonic() + f.seconds)
             elif f.kind == "kill_coordinator" and self.coordinator is not None:
                 _signal(self.coordinator.pid, signal.SIGKILL)
                 self.log.injected.append(f"step {f.at_step}: SIGKILL coordinator")
@@ -71,6 +82,8 @@ class FailureInjector:
                 new = self.spawn_late(f.count)
                 self.log.joined += new
                 self.log.injected.append(f"step {f.at_step}: {len(new)} late joiners {new}")
+            self._calm_from = max(self._calm_from, time.monotonic())
+            self._pending -= 1
 
 
 def _signal(pid: int, sig) -> None:
