@@ -60,7 +60,10 @@ def lockstep(n: int, steps: int) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with Launcher(agent_timeout=10.0) as launcher:
         # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
-        res = run_swarm(setup, steps, launcher=launcher, startup_timeout=60.0 + 0.12 * n)
+        # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),
+        # not after run_swarm's default of 0.004 s x N per step (14 min at N = 1000).
+        res = run_swarm(setup, steps, launcher=launcher, startup_timeout=60.0 + 0.12 * n,
+                        run_timeout=120.0 + 0.5 * steps)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     done = [r for r in res.finals.values() if r.get("status") == "done"]
     sps = res.steps_per_second()
