@@ -114,14 +114,16 @@ def gesture_image(cls: str) -> Path | None:
     return cands[0] if cands else None
 
 
-def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict]:
-    """Wall time of `fluidswarm imitate` per gesture (start-up included) and the fidelity it reached."""
+def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict]:
+    """Wall time of `fluidswarm imitate` per gesture (start-up included), the fidelity it reached, and when
+    its formation settled ({"seconds": simulated, "settled": false when the step cap ended it})."""
     out: dict = {}
     fid: dict = {}
+    formed: dict = {}
     for gesture, cls in GESTURES.items():
         image = gesture_image(cls)
         if image is None:
-            out[gesture] = fid[gesture] = None
+            out[gesture] = fid[gesture] = formed[gesture] = None
             continue
         cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents),
                "--out", f"out/bench/{gesture}"]
@@ -133,7 +135,11 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict]:
         out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
         iou = [ln.split("=", 1)[1].split()[0] for ln in r.stdout.splitlines() if ln.startswith("fidelity_iou=")]
         fid[gesture] = float(iou[-1]) if iou else None
-    return out, fid
+        figures = dict(ln.split("=", 1) for ln in r.stdout.splitlines() if ln.startswith("formation_"))
+        formed[gesture] = ({"seconds": float(figures["formation_seconds"]),
+                            "settled": figures.get("formation_settled") == "true"}
+                           if "formation_seconds" in figures else None)
+    return out, fid, formed
 
 
 def region_controller_timing() -> dict:
@@ -249,7 +255,7 @@ def run(args) -> int:
               f"rss_mb_per_agent={r['rss_mb_per_agent']} decentralisation_ratio={r['decentralisation_ratio']}", flush=True)
         runs.append(r)
     print("gesture imitation ...", file=sys.stderr, flush=True)
-    gestures, gesture_fidelity = imitation_seconds(gesture_agents, 60 if args.quick else None)
+    gestures, gesture_fidelity, gesture_formation = imitation_seconds(gesture_agents, 60 if args.quick else None)
     perception = perception_timings()
     perception.update(region_controller_timing())
     results = {
@@ -261,6 +267,7 @@ def run(args) -> int:
         "gesture_agents": gesture_agents,
         "gesture_imitation_seconds": gestures,
         "gesture_imitation_fidelity_iou": gesture_fidelity,
+        "gesture_imitation_formation": gesture_formation,
         **perception,
     }
     write_outputs(results, Path(args.out))

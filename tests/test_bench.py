@@ -25,6 +25,7 @@ def test_bench_quick_writes_every_field(tmp_path):
     assert isinstance(res["eigen_training_seconds"], float) and res["eigen_training_seconds"] > 0
     assert (tmp_path / "results.md").stat().st_size > 0 and (tmp_path / "results.png").stat().st_size > 0
     assert all(isinstance(v, float) and 0 <= v <= 1 for v in res["gesture_imitation_fidelity_iou"].values())
+    assert all(v["seconds"] > 0 and isinstance(v["settled"], bool) for v in res["gesture_imitation_formation"].values())
     for key in ("region_controller_ms_per_video_frame", "region_controller_ms_per_hand_photo"):
         assert isinstance(res[key], float) and res[key] > 0, key
     # agents report their own peak RSS (VmHWM): the compiled agent, a few MB (issue 14: <= 15), not the parent's
