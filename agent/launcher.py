@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import ctypes
 import json
-import math
 import os
 import secrets
 import shutil
@@ -35,7 +34,6 @@ from agent.sph.particle import Control
 from agent.wire import STATE_SIZE
 
 _ID_STEP = __import__("struct").Struct("<II")
-_MOTION = __import__("struct").Struct("<4d")  # x, y, vx, vy of a state record (agent/wire.py layout)
 _CLOCK = __import__("struct").Struct("<Q")
 
 _PR_SET_PDEATHSIG = 1
@@ -161,7 +159,7 @@ class Launcher:
             return
         self._tracking = True
         self.agent_steps: dict[int, tuple[int, float]] = {}
-        self.motion: dict[int, tuple[int, float, float, float, float]] = {}  # id -> (step, x, y, vx, vy), newest
+        self.newest: dict[int, bytes] = {}  # id -> its newest state record, undecoded (watchers decode it)
         self.end_step: int | None = None
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
@@ -180,9 +178,7 @@ class Launcher:
         last = self.agent_steps.get(agent_id)
         if (last is None or step > last[0]) and step <= self.max_step + 1000:
             self.agent_steps[agent_id] = (step, now)
-            motion = _MOTION.unpack_from(data, 16)
-            if all(math.isfinite(v) for v in motion):  # untrusted: only finite numbers reach the watchers
-                self.motion[agent_id] = (step, *motion)
+            self.newest[agent_id] = data
         if step not in self.step_times and step <= self.max_step + 1000:
             self.step_times[step] = now
             if step > self.max_step:

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
-from coordinator.imitation_setup import DEFAULT_STEPS, prepare_input
+from coordinator.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_input
 from coordinator.settle import SettleRule, SettleWatch
 from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
@@ -36,7 +36,7 @@ class ImitationResult:
 
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
-            controller: str = "fill", failures=(), seed: int = 0, name: str = "imitate",
+            controller: str = DEFAULT_CONTROLLER, failures=(), seed: int = 0, name: str = "imitate",
             on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
             frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
             rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0,
@@ -83,20 +83,17 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
                 watch = SettleWatch(launcher, im.mask, im.transform, im.setup.params.dt, settle, settle_hold)
 
             def started(la):
-                t_start[0] = time.monotonic()
                 if watch is not None:
                     watch.start()
                 if on_started is not None:
                     on_started(la)
 
-            t_start = [time.monotonic()]
             try:
                 launcher.track_progress()
                 if launcher_hook is not None:
                     launcher_hook(launcher, im)
                 res = run_swarm(im.setup, steps, launcher=launcher, on_started=started, progress=progress,
                                 per_agent=per_agent, mode=mode, rate=rate, max_age=max_age)
-                wall = time.monotonic() - t_start[0]
             finally:
                 if watch is not None:
                     watch.stop()
@@ -124,5 +121,6 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     return ImitationResult(mcap, png, fid, res.finals, res.steps_per_second(), im.command.body().__repr__(),
                            res.events, coord.returncode,
                            formation_seconds=(watch.settled_step if settled else last_step) * im.setup.params.dt,
-                           formation_wall_seconds=watch.settled_wall_seconds if settled else wall, settled=settled)
+                           formation_wall_seconds=watch.settled_wall_seconds if settled else res.wall_seconds,
+                           settled=settled)
 

@@ -13,10 +13,10 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
     """Perception -> coordinator -> `agents` agent processes on the scenario's input, with its failures.
 
     `watch` receives the run's launcher and failure injector (for the robustness figures)."""
+    from coordinator.fill import ShapeError
     from fluidswarm.failures import FailureInjector
     from fluidswarm.scenario_commands import ProgressLine, RunSummary
     from perception.io import InputError
-    from coordinator.fill import ShapeError
     from perception.segmentation import SegmentationError
 
     watch = {} if watch is None else watch

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agent.sph.particle import VX, VY, X, Y
+from agent.wire import decode_state
 from fluidswarm.recording.fidelity import fidelity
 
 
@@ -70,19 +72,24 @@ class SettleWatch:
         next_step = every
         walls: list[tuple[float, int]] = []  # (wall time, fastest step) per sample: the swarm's pace
         while not self._stop.wait(0.05):
-            rows = list(self.launcher.motion.values())
+            seen = [s for s, _t in list(self.launcher.agent_steps.values())]
+            if not seen or min(seen) < next_step:
+                continue
+            # Decoded here, once per sample, not per state on the launcher's clock thread; the records are
+            # untrusted, so wire.decode_state validates them as an agent would.
+            decoded = [decode_state(d) for d in list(self.launcher.newest.values())]
+            rows = [(rec[1], rec[3]) for rec, _reason in decoded if rec is not None]
             if not rows:
                 continue
-            m = np.array(rows)
-            step = int(m[:, 0].min())
-            if step < next_step:
-                continue
+            steps = np.array([s for s, _v in rows])
+            step = int(steps.min())
             next_step = step + every
-            iou = fidelity(self.mask, self.transform, m[:, 1:3]).iou
-            speed = float(np.hypot(m[:, 3], m[:, 4]).mean())
+            v = np.array([v for _s, v in rows])
+            iou = fidelity(self.mask, self.transform, v[:, [X, Y]]).iou
+            speed = float(np.hypot(v[:, VX], v[:, VY]).mean())
             self.samples.append((step, iou, speed))
             now = time.monotonic()
-            walls.append((now, int(m[:, 0].max())))
+            walls.append((now, int(steps.max())))
             if self._settled(step, window):
                 self.settled_step = step
                 self.settled_wall_seconds = now - self._t0
