@@ -7,6 +7,7 @@ import sys
 import numpy as np
 
 from fluidswarm.errors import UserError
+from fluidswarm.recording.live import add_live_argument, live_from_args
 
 
 def register(sub) -> None:
@@ -28,6 +29,7 @@ def register(sub) -> None:
                    help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)")
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
+    add_live_argument(p)
     p.set_defaults(func=_launch)
 
     p = sub.add_parser("verify", help="N agent processes against the per-particle reference driver")
@@ -86,6 +88,9 @@ def _launch(args) -> int:
         v = getattr(args, name)
         if not (v > 0 and v < float("inf")):
             raise UserError(f"--{name.replace('_', '-')}: must be a positive number, got {v}")
+    if args.live is not None and not args.record:
+        raise UserError("--live needs --record FILE.mcap (the recorder process serves the live view)")
+    live = live_from_args(args)
     setup = spread_block(args.agents)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     try:
@@ -97,7 +102,7 @@ def _launch(args) -> int:
         print(f"run={launcher.run} router={launcher.endpoint}", flush=True)
         if args.record:
             launcher.start_recorder(args.record, {"scenario": "launch", "agents": args.agents, "steps": args.steps,
-                                                  "params": setup.params.as_dict()}, setup.params.dt)
+                                                  "params": setup.params.as_dict()}, setup.params.dt, live=live)
         res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids),
                         mode=args.mode, rate=args.rate, max_age=args.max_age)
     print(f"mode={args.mode}")

@@ -257,7 +257,7 @@ class Launcher:
             self.swarm.changed.notify_all()
 
     def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "",
-                       image: str = "") -> subprocess.Popen:
+                       image: str = "", live: str = "") -> subprocess.Popen:
         """Start the passive MCAP recorder process (fluidswarm/recording/recorder.py) and wait until its
         subscribers are declared (it then shows a liveliness token), so it misses no step."""
         meta = dict(metadata)
@@ -271,6 +271,8 @@ class Launcher:
             cmd += ["--target", target]
         if image:
             cmd += ["--image", image]
+        if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
+            cmd += ["--live", live]
         self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fluidswarm.errors import UserError
+from fluidswarm.recording.live import add_live_argument, live_from_args
 
 
 def register(sub) -> None:
@@ -20,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
+    add_live_argument(p)
     p.set_defaults(func=_imitate)
 
 
@@ -42,9 +44,10 @@ def _imitate(args) -> int:
     steps = DEFAULT_STEPS if args.steps is None else args.steps
     if steps < 1:
         raise UserError(f"--steps: must be >= 1, got {steps}")
+    live = live_from_args(args)
     try:
         res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller, frame=args.frame,
-                      name=Path(args.input).stem or "imitate")
+                      name=Path(args.input).stem or "imitate", live=live)
     except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
     print(format_fidelity(res.fidelity))

@@ -40,13 +40,14 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
             on_started=None, progress=None, per_agent=None, launcher_hook=None, frame: int | None = None,
             frame_steps: int = 0, sph: dict | None = None, dt: float = 0.0, mode: str = "lockstep",
             rate: float = 12.0, max_age: float = 1.0, agent_timeout: float = 5.0,
-            settle: SettleRule | None = SettleRule(), settle_hold=lambda: False) -> ImitationResult:
+            settle: SettleRule | None = SettleRule(), settle_hold=lambda: False, live: str = "") -> ImitationResult:
     """Imitate one frame of `input_path` (or, with `frame_steps` > 0, the gesture sequence of all its frames,
     each shown for `frame_steps` swarm steps). `sph`/`dt` override the imitation's SPH parameters; `mode`,
     `rate`, `max_age` choose lockstep or asynchronous agents (docs/protocol.md). `launcher_hook(launcher, im)`
     runs before the agents start; `launcher.spawn_late(count)` then starts late joiners. A single frame ends
     when its formation has settled (`settle`, coordinator/settle.py; None: always `steps` steps); a sequence
-    runs its `steps`, switching gestures on the run's clock."""
+    runs its `steps`, switching gestures on the run's clock. `live` (HOST:PORT): the recorder also streams
+    the run to Foxglove (fluidswarm/recording/live.py)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sequence = frame_steps > 0
@@ -66,7 +67,8 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
                 "seed": seed, "sync": mode, "params": im.setup.params.as_dict(), "agent_ids": list(range(agents)),
                 "transform": t.as_dict(), "failures": [getattr(f, "__dict__", str(f)) for f in failures]}
         with Launcher(agent_timeout=agent_timeout, commands=True) as launcher:
-            launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image))
+            launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image),
+                                    live=live)
             env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
             cmd = [sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
                    "--input", str(input_path), "--agents", str(agents), "--controller", controller]

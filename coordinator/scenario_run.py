@@ -9,10 +9,11 @@ from coordinator.imitation_setup import DEFAULT_STEPS
 from fluidswarm.errors import UserError
 
 
-def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None):
+def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None, live: str = ""):
     """Perception -> coordinator -> `agents` agent processes on the scenario's input, with its failures.
 
-    `watch` receives the run's launcher and failure injector (for the robustness figures)."""
+    `watch` receives the run's launcher and failure injector (for the robustness figures); `live` (HOST:PORT)
+    streams the run to Foxglove."""
     from coordinator.fill import ShapeError
     from fluidswarm.failures import FailureInjector
     from fluidswarm.scenario_commands import ProgressLine, RunSummary
@@ -43,7 +44,7 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
                       sph=sc.sph, dt=sc.dt, mode=sc.sync, rate=sc.async_rate, max_age=sc.async_max_age,
                       agent_timeout=sc.neighbour_timeout or 5.0,
                       # the formation may settle before the failures are due: not before they have all happened
-                      settle_hold=lambda: "injector" not in watch or watch["injector"].busy())
+                      settle_hold=lambda: "injector" not in watch or watch["injector"].busy(), live=live)
     except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{sc.path}: input {sc.input}: {exc}") from None
     finally:

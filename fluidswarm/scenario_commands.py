@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from fluidswarm.errors import UserError
+from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
@@ -33,9 +34,11 @@ def register(sub) -> None:
     g.add_argument("--late-join", action="append", default=[], metavar="K@STEP", help="start K extra agents at STEP")
     g.add_argument("--compare", action="store_true",
                    help="also run without failures (same seed) and print fidelity_ratio")
+    add_live_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
     p.add_argument("--out", default="out/demo")
+    add_live_argument(p)
     p.set_defaults(func=_demo)
 
 
@@ -166,7 +169,7 @@ def _sync_extra(sc: Scenario) -> dict:
     return {"mode": sc.sync, "rate": sc.async_rate, "max_age": sc.async_max_age}
 
 
-def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSummary:
+def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict, live: str = "") -> RunSummary:
     """A physics experiment (branching, drag) through agent processes, recorded, with failures."""
     from agent.launcher import Launcher, run_swarm
     from fluidswarm.failures import FailureInjector
@@ -187,7 +190,7 @@ def run_experiment(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSumm
             return launcher.spawn_joiners(count, centre, setup.controls[0], setup.params, steps, **extra)
 
         watch["launcher"] = launcher
-        launcher.start_recorder(str(mcap), meta, setup.params.dt)
+        launcher.start_recorder(str(mcap), meta, setup.params.dt, live=live)
         launcher.track_progress()
         injector = FailureInjector(launcher, sc.failures, setup.ids, sc.seed, spawn_late=spawn_late)
         watch["injector"] = injector
@@ -280,15 +283,15 @@ def print_summary(s: RunSummary) -> None:
     print(f"passed={'true' if s.passed else 'false'}" + ("" if s.passed else "  (" + "; ".join(s.why) + ")"))
 
 
-def _execute_once(sc: Scenario, agents: int, out: Path, watch: dict) -> RunSummary:
+def _execute_once(sc: Scenario, agents: int, out: Path, watch: dict, live: str = "") -> RunSummary:
     if sc.experiment == "imitate":
         from coordinator.scenario_run import run_imitation_scenario
 
-        return run_imitation_scenario(sc, agents, out, watch)
-    return run_experiment(sc, agents, out, watch)
+        return run_imitation_scenario(sc, agents, out, watch, live)
+    return run_experiment(sc, agents, out, watch, live)
 
 
-def execute(sc: Scenario, agents: int | None, out: Path, compare: bool = False) -> RunSummary:
+def execute(sc: Scenario, agents: int | None, out: Path, compare: bool = False, live: str = "") -> RunSummary:
     """Run a scenario; with failures and a fidelity-ratio criterion (or `compare`), first the same scenario
     without failures (same seed, out/baseline) so the two fidelities are measured side by side."""
     agents = agents or sc.agents
@@ -298,7 +301,7 @@ def execute(sc: Scenario, agents: int | None, out: Path, compare: bool = False) 
         print(f"baseline: {sc.name} without failures (same seed) -> {out / 'baseline'}", file=sys.stderr)
         baseline = _execute_once(clean, agents, out / "baseline", {})
     watch: dict = {}
-    summary = _execute_once(sc, agents, out, watch)
+    summary = _execute_once(sc, agents, out, watch, live)  # the baseline is not streamed
     return _finish(sc, summary, out, watch, baseline)
 
 
@@ -310,13 +313,13 @@ def _run(args) -> int:
     if extra or args.sync:
         sc = replace(sc, failures=sc.failures + tuple(extra), sync=args.sync or sc.sync)
     out = Path(args.out or f"out/{sc.name}")
-    summary = execute(sc, args.agents, out, compare=args.compare)
+    summary = execute(sc, args.agents, out, compare=args.compare, live=live_from_args(args))
     print_summary(summary)
     return 0 if summary.passed else 1
 
 
 def _demo(args) -> int:
     sc = load_scenario(DEMO_SCENARIO)
-    summary = execute(sc, None, Path(args.out))
+    summary = execute(sc, None, Path(args.out), live=live_from_args(args))
     print_summary(summary)
     return 0 if summary.passed else 1

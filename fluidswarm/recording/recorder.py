@@ -7,7 +7,9 @@ run is far enough past it (then the missing agents get a `froze` event and count
 state of theirs gives a `started` event). A killed agent's last state is written before its `died` event.
 SIGINT/SIGTERM finish the file (pending steps flushed, MCAP footer written).
 
-`python -m fluidswarm.recording.recorder --connect tcp/... --run NAME --out FILE.mcap [--metadata JSON]`
+With `--live HOST:PORT` it also serves the run to Foxglove as it happens (recording/live.py).
+
+`python -m fluidswarm.recording.recorder --connect tcp/... --run NAME --out FILE.mcap [--metadata JSON] [--live H:P]`
 """
 
 from __future__ import annotations
@@ -215,6 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
     ap.add_argument("--user", default="")
     ap.add_argument("--password", default="")
+    ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
     args = ap.parse_args(argv)
     if not keys.valid_run_name(args.run):
         print(f"fluidswarm record: error: --run {args.run!r} is not a valid run name", file=sys.stderr)
@@ -232,7 +235,17 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
-    writer = RunWriter(args.out, metadata)
+    live = None
+    if args.live:
+        from fluidswarm.errors import UserError
+        from fluidswarm.recording.live import LiveServer, parse_address
+
+        try:
+            live = LiveServer(parse_address(args.live), args.run)
+        except (UserError, RuntimeError) as exc:
+            print(f"fluidswarm record: error: --live {args.live}: {exc}", file=sys.stderr)
+            return 2
+    writer = RunWriter(args.out, metadata, live=live)
     if args.target:
         from fluidswarm.geometry import ImageToDomain
 
@@ -262,6 +275,8 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         recorder.finish()
         writer.close()
+        if live is not None:
+            live.close()
         try:
             session.close()
         except Exception:

@@ -99,7 +99,8 @@ class RunWriter:
     """Write one run to `path`. `metadata` goes to the MCAP metadata record `run` (see `encode_metadata`);
     its `run` entry names the run in the topics (default: the file's stem); `code_version` is added."""
 
-    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024):
+    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024, live=None):
+        """`live` (recording.live.LiveServer or None): also gets every message, as it is written."""
         meta = dict(metadata)
         self.run = str(meta.get("run") or Path(path).stem)
         if not self.run or any(c in self.run for c in "/*$?#") or self.run.strip() != self.run:
@@ -124,6 +125,7 @@ class RunWriter:
         self._channels: dict[str, int] = {}
         self._schema_ids: dict[str, int] = {}
         self._targets = 0
+        self._live = live
         self._mcap.add_metadata("run", encode_metadata(meta))
         self._thread = threading.Thread(target=self._drain, name=f"RunWriter[{self.path.name}]", daemon=False)
         self._thread.start()
@@ -196,7 +198,11 @@ class RunWriter:
             self._mcap.add_message(self._channel(leaf), log_time=log_time, data=data, publish_time=log_time,
                                    sequence=sequence & 0xFFFFFFFF)
 
-        return self._submit(op)
+        if not self._submit(op):
+            return False
+        if self._live is not None:
+            self._live.publish(leaf, data, log_time)
+        return True
 
     def _channel(self, leaf: str) -> int:
         if leaf not in self._channels:

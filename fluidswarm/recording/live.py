@@ -1,0 +1,126 @@
+"""The live view: a Foxglove WebSocket server inside the recorder process (`--live [HOST:PORT]`).
+
+The recorder hands every message it writes to the MCAP to `LiveServer.publish` as well: the same topic,
+schema and JSON bytes, so Foxglove shows a running swarm exactly as it later shows its recording. The
+protocol is served by the `foxglove-sdk` package (subprotocol `foxglove.sdk.v1`, and
+`foxglove.websocket.v1` for older clients).
+
+A viewer never slows the swarm: agents do not wait for the recorder at all, and the recorder only
+queues each message for each client (`BACKLOG` messages per client; when a slow or stuck viewer lets the
+queue fill, the SDK drops that client's oldest messages). A viewer loses frames, the swarm loses no step.
+"""
+
+from __future__ import annotations
+
+import errno
+import socket
+from dataclasses import dataclass
+
+from fluidswarm.errors import UserError
+from fluidswarm.recording import schemas as sc
+
+DEFAULT_ADDRESS = "127.0.0.1:8765"  # the Foxglove app's default WebSocket connection
+BACKLOG = 64  # messages queued per viewer; older ones are dropped when a viewer falls behind
+SERVER_NAME = "fluidswarm"
+
+
+@dataclass(frozen=True)
+class LiveAddress:
+    """Where the live server listens. Loopback unless the user names another address."""
+
+    host: str
+    port: int
+
+    def __str__(self) -> str:
+        return f"{self.host}:{self.port}"
+
+    @property
+    def url(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"ws://{host}:{self.port}"
+
+
+def parse_address(text: str) -> LiveAddress:
+    """'HOST:PORT' (or ':PORT', or 'PORT': loopback) -> LiveAddress. Raises UserError naming the flag."""
+    raw = str(text).strip()
+    host, sep, port_text = raw.rpartition(":")
+    if not sep:
+        host, port_text = "", raw
+    host = host.strip("[]") or "127.0.0.1"
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise UserError(f"--live {text}: expected HOST:PORT, e.g. {DEFAULT_ADDRESS}") from None
+    if not 1 <= port <= 65535:
+        raise UserError(f"--live {text}: port must be in 1..65535")
+    return LiveAddress(host, port)
+
+
+def check_free(address: LiveAddress) -> None:
+    """Fail before anything starts if the address cannot be listened on (port in use, unknown host)."""
+    try:
+        infos = socket.getaddrinfo(address.host, address.port, type=socket.SOCK_STREAM)
+    except socket.gaierror as exc:
+        raise UserError(f"--live {address}: unknown host ({exc.strerror})") from None
+    family, kind, proto, _name, sockaddr = infos[0]
+    with socket.socket(family, kind, proto) as s:
+        try:
+            s.bind(sockaddr)
+        except OSError as exc:
+            what = "port in use" if exc.errno == errno.EADDRINUSE else exc.strerror
+            raise UserError(f"--live {address}: {what}") from None
+
+
+def add_live_argument(parser) -> None:
+    """`--live [HOST:PORT]` on a command that starts the recorder."""
+    parser.add_argument("--live", nargs="?", const=DEFAULT_ADDRESS, default=None, metavar="HOST:PORT",
+                        help=f"stream the run to Foxglove as it happens (WebSocket server; default {DEFAULT_ADDRESS})")
+
+
+def live_from_args(args) -> str:
+    """The validated `--live` address as the recorder's argument ('' without the flag); says where to connect."""
+    if getattr(args, "live", None) is None:
+        return ""
+    address = parse_address(args.live)
+    check_free(address)
+    import sys
+
+    print(f"live: {address.url} (Foxglove: Open connection -> Foxglove WebSocket)", file=sys.stderr, flush=True)
+    return str(address)
+
+
+class LiveServer:
+    """A Foxglove WebSocket server publishing one run's channels (topics and schemas as in the MCAP).
+
+    Every channel is advertised when the server starts, so a viewer can subscribe before the first step."""
+
+    def __init__(self, address: LiveAddress, run: str):
+        import foxglove
+
+        self._context = foxglove.Context()
+        # Raises RuntimeError ("Failed to bind port ...") if the address is taken.
+        self.server = foxglove.start_server(name=f"{SERVER_NAME} {run}", host=address.host, port=address.port,
+                                            context=self._context, message_backlog_size=BACKLOG)
+        self._channels = {}
+        for leaf, name in sc.TOPIC_SCHEMAS.items():
+            schema = foxglove.Schema(name=name, encoding=sc.SCHEMA_ENCODING, data=sc.schema_bytes(name))
+            self._channels[leaf] = foxglove.Channel(sc.topic(run, leaf), schema=schema,
+                                                    message_encoding=sc.MESSAGE_ENCODING, context=self._context)
+        self.dropped = 0  # messages the SDK refused (never raised into the recorder)
+
+    @property
+    def port(self) -> int:
+        return self.server.port
+
+    def publish(self, leaf: str, data: bytes, log_time_ns: int) -> None:
+        """Queue `data` (the MCAP message's bytes) for every subscribed viewer; never blocks."""
+        try:
+            self._channels[leaf].log(data, log_time=log_time_ns)
+        except Exception:  # a live view must never stop the recording
+            self.dropped += 1
+
+    def close(self) -> None:
+        try:
+            self.server.stop()
+        except Exception:
+            pass
