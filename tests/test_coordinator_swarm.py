@@ -131,7 +131,7 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
             while len(got) < 3 and time.monotonic() < deadline:
                 time.sleep(0.1)
             probe = zenoh.open(client_config([la.endpoint]))
-            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 1))
+            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3))
             time.sleep(1.0)
             matching = pub.matching_status.matching
             probe.close()

@@ -97,7 +97,7 @@ except Exception as exc:
     sys.exit(0)
 import time
 for k in range(200):
-    s.put("fluidswarm/split/state/0/0/3", b"x" * 88)
+    s.put("fluidswarm/split/state/0/0", b"x" * 88)
     s.put("fluidswarm/split/command", b"{}")
     time.sleep(0.02)
 print("rogue=connected")

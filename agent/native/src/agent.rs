@@ -18,6 +18,7 @@ use serde_json::{json, Map, Value};
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Locality, SampleKind};
+use zenoh::key_expr::KeyExpr;
 use zenoh::{Session, Wait};
 
 use crate::keys;
@@ -174,7 +175,8 @@ pub struct Agent {
     controller: Option<CommandFollower>,
     shared: Arc<Shared>,
     session: Session,
-    subscribers: HashMap<(i64, i64), Subscriber<()>>,
+    /// per watched cell: its subscriber and the declared key (a numeric id on the link, undeclared with it)
+    subscribers: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
     publisher: Option<((i64, i64), Publisher<'static>)>,
     _fixed: Vec<Subscriber<()>>,
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
@@ -412,17 +414,24 @@ impl Agent {
     fn update_subscriptions(&mut self) -> Result<(), String> {
         let (x, y) = (self.state[X], self.state[Y]);
         let keep: HashSet<(i64, i64)> = keys::covering_cells(x, y, self.r_keep, self.cell).into_iter().collect();
-        self.subscribers.retain(|c, _| keep.contains(c)); // dropping a subscriber undeclares it
+        let gone: Vec<(i64, i64)> = self.subscribers.keys().filter(|c| !keep.contains(c)).copied().collect();
+        for c in gone {
+            if let Some((sub, key)) = self.subscribers.remove(&c) {
+                drop(sub); // undeclares the subscription before its key
+                let _ = self.session.undeclare(key).wait();
+            }
+        }
         for c in keys::covering_cells(x, y, self.r_sub, self.cell) {
             if !self.subscribers.contains_key(&c) {
                 let shared = Arc::clone(&self.shared);
+                let key = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c)).wait().map_err(zerr)?;
                 let sub = self
                     .session
-                    .declare_subscriber(keys::state_cell_expr(&self.spec.run, c))
+                    .declare_subscriber(key.clone())
                     .callback(move |sample| shared.push_state(sample.payload().to_bytes().into_owned()))
                     .wait()
                     .map_err(zerr)?;
-                self.subscribers.insert(c, sub);
+                self.subscribers.insert(c, (sub, key));
             }
         }
         Ok(())
@@ -457,7 +466,7 @@ impl Agent {
             // Block, not Drop: a lost state costs the lockstep swarm a republish round (timeout/4).
             match self
                 .session
-                .declare_publisher(keys::state_key(&self.spec.run, c, self.spec.id))
+                .declare_publisher(keys::state_key(&self.spec.run, c))
                 .congestion_control(self.tuning.congestion)
                 .express(self.tuning.express)
                 // Our own cell's subscriber would otherwise get our state back (a local match per put)
