@@ -119,8 +119,19 @@ class LiveServer:
         except Exception:  # a live view must never stop the recording
             self.dropped += 1
 
-    def close(self) -> None:
-        try:
-            self.server.stop()
-        except Exception:
-            pass
+    def close(self, timeout: float = 1.0) -> bool:
+        """Stop the server; False if it had not stopped after `timeout` s. Its stop waits for every viewer to
+        take its queued messages, which a stuck viewer never does (measured: the recorder hung until the
+        launcher's 60 s SIGKILL), so it runs on a daemon thread and the caller may exit without it."""
+        import threading
+
+        def stop() -> None:
+            try:
+                self.server.stop()
+            except Exception:
+                pass
+
+        t = threading.Thread(target=stop, name="live-stop", daemon=True)
+        t.start()
+        t.join(timeout)
+        return not t.is_alive()

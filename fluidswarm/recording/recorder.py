@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import queue
 import signal
 import sys
@@ -275,12 +276,16 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         recorder.finish()
         writer.close()
-        if live is not None:
-            live.close()
         try:
             session.close()
         except Exception:
             pass
+        if live is not None and not live.close():
+            # A stuck viewer holds the server's stop (and the SDK's exit hook) forever; the MCAP is finished
+            # and synced, so leave without them.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(0)
     return 0
 
 
