@@ -24,6 +24,7 @@ COMMAND_MODULES = (
     "fluidswarm.scenario_commands",
     "fluidswarm.bench",
     "fluidswarm.router",
+    "fluidswarm.reproduce.command",
 )
 
 

@@ -6,6 +6,13 @@ density once it knows its neighbours' positions, and we want one exchange of mes
 forces at step n use the density, pressure and stress evaluated at step n-1 by each particle (its own
 and its neighbours' alike, so the pair forces stay antisymmetric). The reference drivers use exactly
 the same lag, so a swarm of agents reproduces them bit for bit (docs/protocol.md).
+
+A second lag, in the stress: the stress rate of configuration n (eq. 3.11, weights m_j / rho_j) is built
+with the neighbours' density as their states carry it, i.e. of configuration n-1, since their density of
+configuration n is only published with their next state. That stress enters the forces at step n+1, so
+there it uses the neighbours' density of two configurations before. The thesis' flow chart (Fig. 3.5,
+two exchanges) would use the current one; `fluidswarm reproduce` measures both
+(docs/thesis-reproduction.md).
 """
 
 from __future__ import annotations
