@@ -2,7 +2,7 @@
 
 A hand photograph (or a folder of them, a gesture sequence) -> `perception.segmentation.hand_mask`.
 A clip with a static camera (video file or Weizmann strip) -> `perception.segmentation.person_regions`:
-the person's silhouette with its torso (head included), left and right arm.
+the whole person's silhouette with its torso (head and legs included), left and right arm.
 
 `label` is what was recognised (the body pose from the arm ellipses, or the hand's silhouette shape from
 the skeleton features): the coordinator publishes a new command when it changes between frames.
@@ -34,23 +34,33 @@ def is_clip(path: str | Path, frames: list) -> bool:
     return not path.is_dir() and len(frames) >= 3 and (path.suffix.lower() in VIDEO_SUFFIXES or frames[0].shape[:2] == (64, 64))
 
 
-def arm_pose(arm: np.ndarray | None, torso_centre) -> str:
-    """'up' | 'down' | 'side' for an arm mask, from the direction torso centre -> arm centroid."""
+SIDE_MAX_DEG = 35.0  # an arm ellipse within this of horizontal is held sideways (labelled wave2: <= 31)
+
+
+def arm_pose(arm: np.ndarray | None, head_row: float) -> str:
+    """'side' | 'up' | 'down' for an arm mask: sideways if its ellipse lies within SIDE_MAX_DEG of horizontal,
+    else up if the arm reaches above head_row (the head's centre row), else down. No arm: down (an arm that
+    does not leave the torso's outline hangs along it)."""
     if arm is None or not arm.any():
-        return "none"
-    ys, xs = np.nonzero(arm)
-    dx, dy = xs.mean() - torso_centre[0], torso_centre[1] - ys.mean()  # dy > 0: above the torso centre
-    ang = np.degrees(np.arctan2(dy, abs(dx)))
-    return "up" if ang > 40 else "down" if ang < -40 else "side"
+        return "down"
+    from perception.ellipses import fit_ellipse
+
+    e = fit_ellipse(arm)
+    if e is not None and min(e.orientation_deg, 180 - e.orientation_deg) <= SIDE_MAX_DEG:
+        return "side"
+    return "up" if np.flatnonzero(arm.any(axis=1))[0] < head_row else "down"
 
 
-def body_label(parts: dict) -> str:
+def body_label(parts: dict, head_row: float | None = None) -> str:
+    """The pose from both arms (arm_pose); head_row defaults to a sixth of the torso's height (head and
+    legs included) below its top."""
     torso = parts.get("torso")
     if torso is None or not torso.any():
         return "body"
-    ys, xs = np.nonzero(torso)
-    c = (xs.mean(), ys.mean())
-    return f"left_{arm_pose(parts.get('left_arm'), c)}-right_{arm_pose(parts.get('right_arm'), c)}"
+    if head_row is None:
+        rows = np.flatnonzero(torso.any(axis=1))
+        head_row = rows[0] + (rows[-1] - rows[0]) / 6
+    return f"left_{arm_pose(parts.get('left_arm'), head_row)}-right_{arm_pose(parts.get('right_arm'), head_row)}"
 
 
 def hand_label(mask: np.ndarray) -> str:
@@ -71,6 +81,7 @@ def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
 
         out = []
         for i, (f, r) in enumerate(zip(frames, person_regions(frames))):
+            head_row = float(np.nonzero(r.head)[0].mean()) if r.head is not None else None
             torso = None
             if r.torso is not None or r.head is not None:
                 torso = np.zeros(r.silhouette.shape, bool)
@@ -79,7 +90,7 @@ def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
                         torso |= m
             parts = {k: v for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
                      if v is not None and v.any()}
-            out.append(Observation("body", r.silhouette.astype(bool), body_label(parts), f, parts, i))
+            out.append(Observation("body", r.silhouette.astype(bool), body_label(parts, head_row), f, parts, i))
         return out
     from perception.segmentation import hand_mask
 

@@ -61,20 +61,22 @@ MOTION_THRESHOLD = 16  # grey levels (max over colour channels) between a frame 
 BODY_THRESHOLD = 28  # grey levels between the median image and the wall estimate (static body)
 WALL_KERNEL = 21  # median filter side that erases a person-sized object from the median image (64 x 64 clips)
 MIN_PERSON_AREA = 30  # pixels
-MIN_ARM_AREA = 5  # pixels
-HEAD_SHARE = 0.2  # of the static body's height, from its top
-TORSO_SHARE = 0.6  # the torso ends (hips) at 60% of the static body's height; below are the legs
-ARM_ZONE_SHARE = 0.8  # moving parts below 80% of the static body's height are not arms
-
-
+MIN_PERSON_HEIGHT = 0.4  # of the picture's height: a standing person seen whole is taller than this
+MAX_MOVING_SHARE = 0.5  # of the picture: a frame that moves more than this is a moving camera, not a person
+# A static camera's temporal median is as sharp as its frames (only the moving person blurs); a moving
+# camera's is a blur. Median's mean gradient / a typical frame's: 0.72-0.95 on the 28 shared clips (jack,
+# with the most motion, lowest), 0.12-0.21 for a 40-frame pan, 0.31-0.61 for a 10-frame pan or a shaking
+# camera (+-3 px), 0.65 for a slow tilt (1 px per frame) -- that one is not caught.
+MIN_MEDIAN_SHARPNESS = 0.6
 @dataclass
 class PersonRegions:
     """One frame's regions: boolean masks of the frame's shape (None when not found).
 
-    silhouette: the person (static body plus this frame's moving parts). stable: the static body (the
-    thesis' "common regions of the reference and the input image"). head, torso: the static body split at
-    HEAD_SHARE and TORSO_SHARE of its height. left_arm, right_arm: the two biggest moving components,
-    left/right as seen in the picture (smaller column = left). bbox: (x, y, w, h) of the silhouette.
+    silhouette: the whole person (perception/person.py: GrabCut seeded by the still body and the motion).
+    stable: the still body seen in the clip's median image (the thesis' "common regions of the reference
+    and the input image"; it seeds the silhouette). head, torso (with the legs), left_arm, right_arm: the
+    silhouette split by body proportions (perception/body_parts.py), left/right as seen in the picture.
+    bbox: (x, y, w, h) of the silhouette.
     """
 
     silhouette: np.ndarray
@@ -93,6 +95,17 @@ def background_median(frames: list[np.ndarray]) -> np.ndarray:
     if len(frames) < 3:
         raise NoMotionError(f"need at least 3 frames to model the background, got {len(frames)}")
     return np.median(np.stack(frames), axis=0).astype(np.uint8)
+
+
+def _mean_gradient(img: np.ndarray) -> float:
+    g = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.float32) if img.ndim == 3 else img.astype(np.float32)
+    return float(np.abs(cv2.Sobel(g, cv2.CV_32F, 1, 0)).mean() + np.abs(cv2.Sobel(g, cv2.CV_32F, 0, 1)).mean())
+
+
+def median_sharpness(frames: list[np.ndarray], background: np.ndarray) -> float:
+    """The background's mean gradient over a typical (median) frame's: ~1 for a static camera."""
+    typical = float(np.median([_mean_gradient(f) for f in frames]))
+    return _mean_gradient(background) / typical if typical > 0 else 1.0
 
 
 def _diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -144,28 +157,38 @@ def _components(mask: np.ndarray, min_area: int) -> list[np.ndarray]:
     return [labels == i for i in order if stats[i, cv2.CC_STAT_AREA] >= min_area]
 
 
-def _arms(moving: np.ndarray, cx: int) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The biggest moving component on each side of the body's centre column cx (cut there, so hands
-    that meet over the head still give two arms): (left, right) as seen in the picture."""
-    cut = moving.copy()
-    cut[:, cx] = False
-    out = []
-    for side in (slice(0, cx), slice(cx + 1, None)):
-        half = np.zeros_like(cut)
-        half[:, side] = cut[:, side]
-        comps = _components(half, MIN_ARM_AREA)
-        out.append(comps[0] if comps else None)
-    return out[0], out[1]
+class NoPersonError(SegmentationError):
+    """Something moves, but not a person in front of a static camera (a moving camera, a small object)."""
 
 
-def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD) -> list[PersonRegions]:
+def _seed_place(stable: np.ndarray, anywhere: np.ndarray) -> tuple[int, int]:
+    """The person's centre column (the still body's, else the motion's) and top row: the higher of the still
+    body's top and the top of the motion above it (raised arms, a jump: better start the band too high -
+    colour then says wall - than too low)."""
+    src = stable if stable.any() else anywhere
+    ys, xs = np.nonzero(src)
+    centre, top = int(round(xs.mean())), int(ys.min())
+    near = anywhere[:, max(0, centre - 2):centre + 3]
+    if near.any():
+        top = min(top, int(np.flatnonzero(near.any(axis=1))[0]))
+    return centre, top
+
+
+def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD,
+                   only: list[int] | None = None) -> list[PersonRegions]:
     """Regions of the one person in each frame of a static-camera clip (thesis §5.2, §6.2.2).
 
-    Background = temporal median (the still body stays in it). Moving parts = frame minus background;
-    the biggest component on each side of the body's centre column is an arm. The static body is found in the
-    median image against a wall estimate; its top HEAD_SHARE is the head, down to TORSO_SHARE the torso.
-    Raises NoMotionError if nothing moves.
+    Background = temporal median (the still body stays in it); moving parts = frame minus background.
+    The still body is found in the median image against a wall estimate. Each frame's whole silhouette is
+    GrabCut seeded with a band round the still body and that frame's moving parts (perception/person.py),
+    split into head, torso with legs and arms by body proportions (perception/body_parts.py).
+    `only`: the indices of the frames wanted (default all; the background always comes from all frames).
+    Raises NoMotionError if nothing moves, NoPersonError if the camera moves (the median picture is a blur
+    of the frames, or most of the picture moves) or no person-sized silhouette is found.
     """
+    from perception.body_parts import split_body
+    from perception.person import person_masks
+
     if not frames:
         raise NoMotionError("no frames")
     frames = [f if f.ndim == 3 else cv2.cvtColor(f, cv2.COLOR_GRAY2BGR) for f in frames]
@@ -173,35 +196,34 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD) 
         raise SegmentationError("frames differ in size")
     bg = background_median(frames)
     moving = moving_masks(frames, bg, threshold)
-    min_motion = max(MIN_ARM_AREA, int(2e-4 * bg.shape[0] * bg.shape[1]))
+    rows, cols = bg.shape[:2]
+    min_motion = max(5, int(2e-4 * rows * cols))
     if sum(int(m.sum() >= min_motion) for m in moving) < max(2, len(frames) // 10):
-        raise NoMotionError("no motion: nothing in the frames differs from the background (a still picture?)")
+        raise NoMotionError("no person found: no motion, nothing in the frames differs from the background "
+                            "(a still picture or an empty scene?)")
+    sharp = median_sharpness(frames, bg)
+    if sharp < MIN_MEDIAN_SHARPNESS:
+        raise NoPersonError(f"no person found: the camera moves (the clip's median picture keeps {sharp:.0%} of "
+                            f"a frame's detail, a static camera's at least {MIN_MEDIAN_SHARPNESS:.0%})")
+    shares = np.array([m.mean() for m in moving])
+    if np.median(shares) > MAX_MOVING_SHARE:
+        raise NoPersonError(f"no person found: {100 * np.median(shares):.0f} % of the picture moves in a typical "
+                            "frame (a moving camera?); a person needs a static camera")
     anywhere = np.mean(np.stack(moving), axis=0) > 0.05
     stable = static_body(bg, near=anywhere)
-    head = torso = None
-    r_arms = bg.shape[0]
-    if stable.any():
-        rows = np.flatnonzero(stable.any(axis=1))
-        top, height = rows[0], rows[-1] - rows[0] + 1
-        r_head, r_hips = top + int(round(HEAD_SHARE * height)), top + int(round(TORSO_SHARE * height))
-        rr = np.arange(stable.shape[0])[:, None]
-        r_arms = top + int(round(ARM_ZONE_SHARE * height))
-        head = stable & (rr < r_head)
-        torso = stable & (rr >= r_head) & (rr < r_hips)
-        head = head if head.any() else None
-        torso = torso if torso.any() else None
+    centre_col, top_row = _seed_place(stable, anywhere)
+    wanted = range(len(frames)) if only is None else list(only)
+    silhouettes = person_masks([frames[i] for i in wanted], [moving[i] for i in wanted], centre_col, top_row)
+    tall = [s.any() and np.ptp(np.flatnonzero(s.any(axis=1))) + 1 >= MIN_PERSON_HEIGHT * rows for s in silhouettes]
+    if sum(tall) < 0.5 * len(silhouettes):
+        raise NoPersonError(f"no person found: what moves is never a standing person (taller than "
+                            f"{MIN_PERSON_HEIGHT:.0%} of the picture) in more than half of the frames")
     out = []
-    cx = int(round(np.nonzero(stable)[1].mean())) if stable.any() else bg.shape[1] // 2
-    arm_zone = np.arange(bg.shape[0])[:, None] < r_arms  # not the moving edges of a shirt or legs
-    for mv in moving:
-        left, right = _arms(mv & ~stable & arm_zone, cx)
-        arms = [a for a in (left, right) if a is not None]
-        sil = stable.copy()
-        for a in arms:
-            sil |= a
+    for i, sil in zip(wanted, silhouettes):
+        parts = split_body(sil, moving[i])
         bbox = None
         if sil.any():
             ys, xs = np.nonzero(sil)
             bbox = (int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1))
-        out.append(PersonRegions(sil, stable, head, torso, left, right, bbox))
+        out.append(PersonRegions(sil, stable, parts.head, parts.torso, parts.left_arm, parts.right_arm, bbox))
     return out
