@@ -6,10 +6,10 @@ import time
 from pathlib import Path
 
 from fluidswarm.errors import UserError
-from fluidswarm.reproduce import classifier, equations, gestures, report, stiffness, timings, viscosity
+from fluidswarm.reproduce import classifier, decentralised, equations, gestures, report, stiffness, timings, viscosity
 from fluidswarm.reproduce.claim import Context
 
-GROUPS = (stiffness, viscosity, equations, gestures, classifier, timings)
+GROUPS = (stiffness, viscosity, equations, decentralised, gestures, classifier, timings)
 REPORT_NAME = "thesis-reproduction.md"
 
 

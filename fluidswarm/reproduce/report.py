@@ -29,7 +29,11 @@ def write(path: Path, groups: list[Group], quick: bool, seconds: float, command:
         "measured (column *set-up*); where the project's set-up hides a relation a *measurable* set-up is "
         "reported beside the thesis-faithful one.",
         "",
+        "Where we disagree, in short:",
+        "",
     ]
+    lines += [f"- {c.where} ({c.setup}): {c.claim} — {c.why}" for c in claims if c.verdict is Verdict.DISAGREE]
+    lines.append("")
     for g in groups:
         lines += [f"## {g.title}", ""]
         lines += [n + "\n" for n in g.notes]
