@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from perception.ellipses import fit_ellipse
+
 MIN_ARM_AREA = 5  # pixels: smaller leftovers beside the torso are the outline's noise, not an arm
 ARM_MIN_LENGTH = 0.25  # of L: a still part beside the torso this long (an upper arm and more) can be an arm
 ARM_MIN_ELONGATION = 2.5  # l_major / l_minor of a still arm (a jacket's edge is short, a hanging arm long)
@@ -160,7 +162,5 @@ def split_body(silhouette: np.ndarray, moving: np.ndarray | None = None,
 
 
 def _arm_shaped(part: np.ndarray, min_length: float) -> bool:
-    from perception.ellipses import fit_ellipse
-
     e = fit_ellipse(part)
     return e is not None and e.l_major >= min_length and e.l_major >= ARM_MIN_ELONGATION * e.l_minor

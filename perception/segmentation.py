@@ -5,6 +5,10 @@ Hand silhouette from a photograph on a plain, white-ish background.
 The background is bright and grey (low saturation); skin is saturated. Otsu's threshold on a blend of
 saturation and darkness separates them despite the set's shadows and vignetting; morphology closes gaps
 and the largest component is the hand.
+
+Person: the clip's temporal median is the background (thesis §5.2), the still body is found in it, and
+each frame's whole silhouette is GrabCut seeded by the still body and the frame's motion
+(perception/person.py), split into head, torso with legs and arms (perception/body_parts.py).
 """
 
 from __future__ import annotations
@@ -13,6 +17,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from perception.body_parts import split_body
+from perception.person import person_masks
 
 
 class SegmentationError(ValueError):
@@ -68,6 +75,8 @@ MAX_MOVING_SHARE = 0.5  # of the picture: a frame that moves more than this is a
 # with the most motion, lowest), 0.12-0.21 for a 40-frame pan, 0.31-0.61 for a 10-frame pan or a shaking
 # camera (+-3 px), 0.65 for a slow tilt (1 px per frame) -- that one is not caught.
 MIN_MEDIAN_SHARPNESS = 0.6
+
+
 @dataclass
 class PersonRegions:
     """One frame's regions: boolean masks of the frame's shape (None when not found).
@@ -186,9 +195,6 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD,
     Raises NoMotionError if nothing moves, NoPersonError if the camera moves (the median picture is a blur
     of the frames, or most of the picture moves) or no person-sized silhouette is found.
     """
-    from perception.body_parts import split_body
-    from perception.person import person_masks
-
     if not frames:
         raise NoMotionError("no frames")
     frames = [f if f.ndim == 3 else cv2.cvtColor(f, cv2.COLOR_GRAY2BGR) for f in frames]
