@@ -6,9 +6,9 @@ import sys
 
 import numpy as np
 
-from fluidswarm.reproduce.allpairs import AllPairsDriver
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
+from fluidswarm.reproduce.allpairs import AllPairsDriver
 
 
 def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):

@@ -14,7 +14,7 @@ from agent.route import followers_for
 from agent.sph.params import SPHParams
 from agent.sph.particle import P, RHO, VX, VY, Control, initial_state
 from agent.sph.reference import VectorisedDriver
-from agent.sph.setups import Setup, lattice
+from agent.sph.setups import lattice
 from fluidswarm.reproduce import plots
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 
@@ -126,13 +126,12 @@ def body_speeds(ctx: Context, g: Group) -> None:
         names = [c.name for c in command.classes]
         arm = np.array([names[k].startswith(("left_arm", "right_arm")) for k in setup.classes])
         d = VectorisedDriver(setup.ids, setup.states, followers, setup.params)
-        sa, st, pa = [], [], []
+        sa, st = [], []
         for _ in range(steps):
             d.step()
             v = np.hypot(d.states[:, VX], d.states[:, VY])
             sa.append(v[arm].mean())
             st.append(v[~arm].mean())
-            pa.append(d.states[arm, P].mean())
         res[beta_arm] = (np.mean(sa), np.mean(st), int(arm.sum()))
     a20, t20, n_arm = res[20.0]
     a2, t2, _ = res[2.0]

@@ -72,3 +72,4 @@ def branch_gap(classes: np.ndarray, states: np.ndarray) -> float:
     if not up.any() or not down.any():
         return float("nan")
     return float(np.median(states[up, Y]) - np.median(states[down, Y]))
+

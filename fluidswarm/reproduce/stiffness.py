@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from agent.sph.params import SPHParams
-from agent.sph.particle import Y
+from agent.sph.particle import FROZEN, Y
 from agent.sph.setups import branching
 from fluidswarm.reproduce import plots
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
@@ -217,8 +217,6 @@ def border_freeze(ctx: Context, g: Group) -> None:
     setup = branching(n, beta_middle=20.0, beta_edge=2.0,
                       params=SPHParams(drag=0.0, domain=(-20.0, 100.0, -3.0, top), border="freeze"))
     r = record(setup, steps)
-    from agent.sph.particle import FROZEN
-
     frozen = r.final[:, FROZEN] != 0
     share = {k: float(frozen[np.isin(setup.classes, c)].mean()) for k, c in (("middle", MIDDLE), ("edges", EDGES))}
     first = int(np.argmax(r.frozen > 0)) if r.frozen.any() else -1
