@@ -13,7 +13,11 @@ def register(sub) -> None:
     p.add_argument("args", nargs="*", help="see `python -m coordinator --help`")
     p.set_defaults(func=_coordinator)
     p = sub.add_parser("imitate", help="perception -> coordinator -> N agent processes -> formation, MCAP, fidelity")
-    p.add_argument("input", help="image, folder of frames, or video")
+    p.add_argument("input", nargs="?", help="image, folder of frames, or video (or --camera)")
+    p.add_argument("--camera", metavar="DEVICE|URL|FILE",
+                   help="follow a person watched live: frames read as they come, a new command when the gesture changes")
+    p.add_argument("--fps", type=float, default=5.0, help="--camera: at most this many frames observed per second")
+    p.add_argument("--stall-seconds", type=float, default=5.0, help="--camera: no new frame for this long is an error")
     p.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"],
                    help="fill (default): the swarm fills the silhouette like a liquid; region: waypoints at k-means "
                         "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force")
@@ -35,7 +39,6 @@ def _imitate(args) -> int:
     from coordinator.fill import ShapeError
     from coordinator.imitate import imitate
     from coordinator.imitation_setup import DEFAULT_STEPS
-    from fluidswarm.recording.fidelity import format_fidelity
     from perception.io import InputError
     from perception.segmentation import SegmentationError
 
@@ -44,12 +47,32 @@ def _imitate(args) -> int:
     steps = DEFAULT_STEPS if args.steps is None else args.steps
     if steps < 1:
         raise UserError(f"--steps: must be >= 1, got {steps}")
+    if (args.input is None) == (args.camera is None):
+        raise UserError("give an INPUT file or --camera DEVICE|URL|FILE (one of them)")
+    if not 0 < args.fps <= 120:
+        raise UserError(f"--fps: must be in (0, 120], got {args.fps}")
+    if not 0 < args.stall_seconds < 3600:
+        raise UserError(f"--stall-seconds: must be in (0, 3600), got {args.stall_seconds}")
     live = live_from_args(args)
+    if args.camera is not None:
+        from coordinator.imitate_camera import imitate_camera
+
+        res = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
+                             fps=args.fps, stall_seconds=args.stall_seconds, live=live)
+        _print_result(res)
+        return 0
     try:
         res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller, frame=args.frame,
                       name=Path(args.input).stem or "imitate", live=live)
     except (InputError, SegmentationError, ShapeError) as exc:
         raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
+    _print_result(res)
+    return 0
+
+
+def _print_result(res) -> None:
+    from fluidswarm.recording.fidelity import format_fidelity
+
     print(format_fidelity(res.fidelity))
     print(f"formation_seconds={res.formation_seconds:.2f}")
     print(f"formation_wall_seconds={res.formation_wall_seconds:.2f}")
@@ -58,4 +81,3 @@ def _imitate(args) -> int:
     print(f"steps_per_second={res.steps_per_second:.2f}")
     print(f"mcap={res.mcap}")
     print(f"png={res.png}")
-    return 0

@@ -6,7 +6,9 @@ one period, and publishes a new command (next sequence number) when the observed
 between frames (thesis ch. 5, gesture sequences).
 
 `python -m coordinator --connect tcp/HOST:PORT --run NAME --input IMAGE|FOLDER|VIDEO --agents N`
-with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET.
+with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET. With `--camera DEVICE|URL|FILE`
+instead of `--input` it observes frames as they come (coordinator/camera.py) until the stream ends or
+stalls (then a one-line error, exit 1).
 """
 
 from __future__ import annotations
@@ -68,7 +70,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="fluidswarm coordinator", description=__doc__.splitlines()[0])
     ap.add_argument("--connect", required=True)
     ap.add_argument("--run", required=True)
-    ap.add_argument("--input", required=True, help="image, folder of frames, or video")
+    ap.add_argument("--input", help="image, folder of frames, or video")
+    ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
+    ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
+    ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
+    ap.add_argument("--observations", help="camera: folder for first.npz / latest.npz (the launcher reads them)")
     ap.add_argument("--agents", type=int, required=True)
     ap.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"])
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
@@ -92,6 +98,11 @@ def main(argv: list[str] | None = None) -> int:
         print("fluidswarm coordinator: error: bad --run, --agents, --period, --frame-steps or --frame-seconds",
               file=sys.stderr)
         return 2
+    if bool(args.input) == bool(args.camera):
+        print("fluidswarm coordinator: error: give --input or --camera (one of them)", file=sys.stderr)
+        return 2
+    if args.camera:
+        return _camera(args, secret)
     from perception.io import InputError
     from perception.segmentation import SegmentationError
 
@@ -123,6 +134,36 @@ def main(argv: list[str] | None = None) -> int:
         token.undeclare()
         pub.undeclare()
     finally:
+        session.close()
+    return 0
+
+
+def _camera(args, secret: bytes) -> int:
+    """The live source (coordinator/camera.py): commands as the observed gesture changes."""
+    from pathlib import Path
+
+    from coordinator.camera import run_camera
+    from perception.stream import StreamError, StreamParams
+
+    try:
+        params = StreamParams(fps=args.fps, stall_seconds=args.stall_seconds)
+    except ValueError as exc:
+        print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: stop.set())
+    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    try:
+        pub = session.declare_publisher(keys.command_key(args.run))
+        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
+        observations = Path(args.observations) if args.observations else None
+        run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations)
+    except StreamError as exc:
+        print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        stop.set()
         session.close()
     return 0
 

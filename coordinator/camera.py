@@ -1,0 +1,177 @@
+"""A live source for the coordinator: a person watched by a camera, a network stream or a video file.
+
+Frames are taken as they come (perception/stream.py, at most `--fps` per second). Each observed frame is
+read with the last `window` observed frames as a static-camera clip (coordinator/observe.py: the person's
+silhouette, arms and recognised pose); the person's box is tracked with the Kalman filter of
+perception/tracking.py. A new command (next sequence number) is issued only when the recognised gesture
+changed and held for `label_hold` observations, or the silhouette changed beyond a threshold (its IoU with
+the last commanded one, or the tracked box moving or resizing, no sooner than `min_seconds` after the last
+command) -- not every frame.
+
+The first command's observation is written to `first.npz` (and every command's to `latest.npz`) in the
+folder the launcher gives (`--observations DIR`), so it can place the swarm and score the formation.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from coordinator.observe import Observation, observe
+from perception.tracking import BoxKalman, box_to_centre
+
+# observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
+CLIP = Path("camera.mp4")
+PARTS = ("torso", "left_arm", "right_arm")
+
+
+@dataclass(frozen=True)
+class ChangeRule:
+    """window [frames]: observed frames read together (their median is the background); label_hold
+    [observations]: a recognised gesture counts once seen this many times in a row; silhouette_iou: a
+    silhouette whose IoU with the last commanded one is below this is a new shape; box_change: the tracked
+    box moving or resizing by more than this fraction of its size is a new shape; min_seconds [s]: at least
+    this long after a command before a new shape counts (the swarm needs time to follow; a new gesture
+    does not wait). Measured on the shared wave2 clip (person 0, 64 x 64): a window of 6 frames observed
+    at half the clip's rate gives the whole clip's labels on every frame; within one pose the waving arms
+    move the silhouette by IoU 0.54-0.93 and the box by up to 0.44 of its size between observations."""
+
+    window: int = 6
+    label_hold: int = 2
+    silhouette_iou: float = 0.5
+    box_change: float = 0.5
+    min_seconds: float = 1.0
+
+
+class LiveObserver:
+    """The newest frame read with the ones before it; None while there is nothing to see yet."""
+
+    def __init__(self, window: int):
+        self.frames: deque = deque(maxlen=max(3, window))
+
+    def observe(self, frame: np.ndarray) -> Observation | None:
+        from perception.segmentation import SegmentationError
+
+        if self.frames and self.frames[-1].shape != frame.shape:
+            self.frames.clear()  # the source changed its picture size: start again
+        self.frames.append(frame)
+        if len(self.frames) < 3:
+            return None
+        try:
+            obs = observe(CLIP, list(self.frames))[-1]
+        except SegmentationError:  # nothing moves yet, or no person: the swarm keeps its command
+            return None
+        return obs if obs.mask.any() else None
+
+
+def _box(mask: np.ndarray) -> np.ndarray:
+    ys, xs = np.nonzero(mask)
+    return box_to_centre((xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1))
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    union = np.logical_or(a, b).sum()
+    return float(np.logical_and(a, b).sum() / union) if union else 1.0
+
+
+class CommandSwitch:
+    """Decides when an observation deserves a new command (ChangeRule)."""
+
+    def __init__(self, rule: ChangeRule = ChangeRule()):
+        self.rule = rule
+        self.kalman = BoxKalman()
+        self.candidate, self.seen = None, 0
+        self.label: str | None = None  # of the last command
+        self.mask: np.ndarray | None = None
+        self.box: np.ndarray | None = None  # tracked (cx, cy, w, h) at the last command
+        self.at = -np.inf
+
+    def update(self, obs: Observation, now: float) -> str | None:
+        """Why a new command is due ('first' | 'gesture' | 'silhouette'), or None."""
+        self.kalman.predict()
+        tracked = self.kalman.update(_box(obs.mask))
+        if obs.label == self.candidate:
+            self.seen += 1
+        else:
+            self.candidate, self.seen = obs.label, 1
+        if self.label is None:
+            return "first"
+        if self.candidate != self.label and self.seen >= self.rule.label_hold:
+            return "gesture"
+        if now - self.at < self.rule.min_seconds:
+            return None
+        if obs.mask.shape == self.mask.shape and _iou(obs.mask, self.mask) < self.rule.silhouette_iou:
+            return "silhouette"
+        size = max(self.box[2], self.box[3], 1.0)
+        if np.abs(tracked - self.box).max() > self.rule.box_change * size:
+            return "silhouette"
+        return None
+
+    def commit(self, obs: Observation, now: float) -> None:
+        """A command for `obs` went out."""
+        self.label, self.mask, self.at = obs.label, obs.mask, now
+        self.box = self.kalman.x[:4].copy()
+
+
+def save_observation(path: Path, obs: Observation) -> None:
+    """Written whole or not at all (the launcher polls for it)."""
+    tmp = path.with_suffix(".tmp.npz")
+    parts = {k: obs.parts[k] for k in PARTS if k in obs.parts}
+    np.savez(tmp, mask=obs.mask, frame=obs.frame, label=obs.label, kind=obs.kind, **parts)
+    os.replace(tmp, path)
+
+
+def load_observation(path: Path) -> Observation:
+    with np.load(path) as z:
+        parts = {k: z[k].astype(bool) for k in PARTS if k in z.files}
+        return Observation(str(z["kind"]), z["mask"].astype(bool), str(z["label"]), z["frame"], parts)
+
+
+def run_camera(source: str, stream_params, n_agents: int, controller: str, secret: bytes, pub, stop: threading.Event,
+               period: float, observations: Path | None, rule: ChangeRule = ChangeRule()) -> None:
+    """Observe `source` until `stop`, publishing signed commands on `pub` (republished every `period` s
+    by a side thread, so late joiners get one while a frame is being read). Raises StreamError."""
+    from coordinator.fill import ShapeError
+    from coordinator.imitation_setup import build_command, transform_for
+    from perception.stream import FrameStream
+
+    current: list[bytes] = []
+
+    def republish() -> None:
+        while not stop.wait(period):
+            if current:
+                pub.put(current[-1])
+
+    threading.Thread(target=republish, name="republish", daemon=True).start()
+    observer, switch = LiveObserver(rule.window), CommandSwitch(rule)
+    transform = None
+    seq = 0
+    with FrameStream(source, stream_params) as stream:
+        while not stop.is_set():
+            obs = observer.observe(stream.next())
+            if obs is None:
+                continue
+            now = time.monotonic()
+            if switch.update(obs, now) is None:
+                continue
+            t = transform or transform_for(obs.mask, n_agents, controller)
+            try:
+                cmd = build_command(obs, t, n_agents, controller, seq=seq + 1)
+            except (ShapeError, ValueError):  # a silhouette the swarm cannot take (too small, too thin): wait
+                continue
+            transform, seq = t, seq + 1
+            switch.commit(obs, now)
+            payload = cmd.encode(secret)
+            current.append(payload)
+            del current[:-1]
+            pub.put(payload)
+            if observations is not None:
+                if seq == 1:
+                    save_observation(observations / "first.npz", obs)
+                save_observation(observations / "latest.npz", obs)
