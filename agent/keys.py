@@ -2,8 +2,7 @@
 
     fluidswarm/<run>/state/<cx>/<cy>        agents' states published in cell (cx, cy) (the record carries the id)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
-    fluidswarm/<run>/born/<cx>/<cy>/<id>    liveliness token: the agent's *initial* cell (step-0 discovery)
-    fluidswarm/<run>/ctl/start|stop         launcher -> agents: begin stepping / stop now
+    fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
     fluidswarm/<run>/event/<id>             agent -> recorder: notable events (JSON)
     fluidswarm/<run>/command                coordinator -> agents: the signed gesture command
@@ -45,14 +44,6 @@ def alive_key(run: str, agent_id: int) -> str:
 
 def alive_expr(run: str) -> str:
     return f"{PREFIX}/{run}/alive/*"
-
-
-def born_key(run: str, cx: int, cy: int, agent_id: int) -> str:
-    return f"{PREFIX}/{run}/born/{cx}/{cy}/{agent_id}"
-
-
-def born_cell_expr(run: str, cx: int, cy: int) -> str:
-    return f"{PREFIX}/{run}/born/{cx}/{cy}/*"
 
 
 def ctl_key(run: str, what: str) -> str:

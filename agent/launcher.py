@@ -14,6 +14,7 @@ import secrets
 import shutil
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -28,13 +29,15 @@ import zenoh
 
 from agent import keys
 from agent.executable import agent_executable
+from agent.initial_neighbours import initial_neighbours
 from agent.session import router_config
 from agent.spec import AgentSpec
 from agent.sph.particle import Control
 from agent.wire import STATE_SIZE
 
-_ID_STEP = __import__("struct").Struct("<II")
-_CLOCK = __import__("struct").Struct("<Q")
+_ID_STEP = struct.Struct("<II")
+_CLOCK = struct.Struct("<Q")
+_GONE = struct.Struct("<I")
 
 _PR_SET_PDEATHSIG = 1
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
@@ -101,6 +104,7 @@ class Swarm:
     finals: dict[int, dict] = field(default_factory=dict)
     events: list[dict] = field(default_factory=list)
     alive: set[int] = field(default_factory=set)
+    gone: list[int] = field(default_factory=list)  # lost agents not yet relayed on ctl/gone
     lock: threading.Lock = field(default_factory=threading.Lock)
     changed: threading.Condition = None  # type: ignore[assignment]
 
@@ -205,6 +209,15 @@ class Launcher:
             now = time.monotonic()
             with self.swarm.changed:
                 alive = set(self.swarm.alive)
+                gone, self.swarm.gone = self.swarm.gone, []
+            # Agents learn of a lost neighbour from this relay, not from a liveliness subscriber each on every
+            # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
+            for j in gone:
+                try:
+                    self.session.put(keys.ctl_key(self.run, "gone"), _GONE.pack(j),
+                                     congestion_control=zenoh.CongestionControl.BLOCK)
+                except Exception:  # the session is closing
+                    return
             steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
             if steps:
                 last = min(steps)
@@ -252,8 +265,12 @@ class Launcher:
         with self.swarm.changed:
             if sample.kind == zenoh.SampleKind.PUT:
                 self.swarm.alive.add(j)
+                gone = False
             else:
                 self.swarm.alive.discard(j)
+                gone = j not in self.swarm.finals  # a finished agent's neighbours are done with it too
+            if gone:
+                self.swarm.gone.append(j)  # relayed on ctl/gone by the clock thread (no put on the router's thread)
             self.swarm.changed.notify_all()
 
     def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "",
@@ -474,9 +491,10 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         # 1000-agent swarm takes minutes on two cores), not a fixed 120 s.
         spec_extra.setdefault("start_timeout", max(120.0, startup_budget + 30.0))
         t0 = time.monotonic()
+        near = initial_neighbours(everyone, [setup.states[index[i]][:2] for i in everyone], setup.params)
         for i in chosen:
             k = index[i]
-            extra = {**spec_extra, **(per_agent or {}).get(i, {})}
+            extra = {**spec_extra, "neighbours": near[i], **(per_agent or {}).get(i, {})}
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
         launcher.track_progress()
         launcher.wait_alive(everyone, startup_budget)

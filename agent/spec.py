@@ -33,6 +33,8 @@ class AgentSpec:
                    "async" (step on the agent's own clock with the latest neighbour states; docs/protocol.md)
     rate           steps/s an async agent aims for (its own clock); a late agent does not race to catch up
     max_age        s: in async mode a neighbour state older than this is not used (frozen, gone or far)
+    neighbours     [[id, x, y], ...]: agents placed near this one; those in its watched cells are its step-0
+                   neighbours (agent/initial_neighbours.py)
     """
 
     run: str
@@ -52,6 +54,7 @@ class AgentSpec:
     mode: str = "lockstep"
     rate: float = 12.0
     max_age: float = 1.0
+    neighbours: list = field(default_factory=list)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), separators=(",", ":"))
@@ -95,6 +98,11 @@ class AgentSpec:
                 raise ValueError(f"agent spec: {name} must be > 0, got {v!r}")
         if not isinstance(self.drop_out, (int, float)) or not 0 <= self.drop_out < 1:
             raise ValueError(f"agent spec: drop_out must be in [0, 1), got {self.drop_out!r}")
+        if not isinstance(self.neighbours, list) or not all(
+                isinstance(n, list) and len(n) == 3 and isinstance(n[0], int) and not isinstance(n[0], bool)
+                and 0 <= n[0] < 2**31 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
+                for n in self.neighbours):
+            raise ValueError("agent spec: neighbours must be a list of [id, x, y] (id in [0, 2^31), x, y finite)")
         self.sph_params()
         self.static_control()
 

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use serde_json::{json, Map, Value};
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
-use zenoh::sample::{Locality, SampleKind};
+use zenoh::sample::Locality;
 use zenoh::key_expr::KeyExpr;
 use zenoh::{Session, Wait};
 
@@ -288,6 +288,15 @@ impl Agent {
                     let mut b = [0u8; 8];
                     b.copy_from_slice(&payload);
                     self.clock = Some(u64::from_le_bytes(b));
+                } else if key.ends_with("/gone") && payload.len() == 4 {
+                    // The launcher relays an agent's lost liveliness (docs/protocol.md: ctl/gone): one
+                    // subscriber per agent on every other agent's token was O(N²) messages at start-up.
+                    let mut b = [0u8; 4];
+                    b.copy_from_slice(&payload);
+                    let j = u32::from_le_bytes(b);
+                    if j < (1u32 << 31) {
+                        return self.handle(Msg::Gone(j));
+                    }
                 } else if key.ends_with("/end") && payload.len() == 8 {
                     let mut b = [0u8; 8];
                     b.copy_from_slice(&payload);
@@ -621,11 +630,12 @@ impl Agent {
 
     /// Make sure the final report has left: a query to the router travels behind it on the same link,
     /// so its answer means the router has the report (the session's close does not wait for the queue).
+    /// A plain query on our own final key: no queryable serves it, so the router answers at once (a liveliness
+    /// query would walk every token of the swarm in the router, N times at the end of a run).
     fn flush(&self) {
         if let Ok(replies) = self
             .session
-            .liveliness()
-            .get(keys::alive_key(&self.spec.run, self.spec.id))
+            .get(keys::final_key(&self.spec.run, self.spec.id))
             .timeout(Duration::from_secs(1))
             .wait()
         {
@@ -646,22 +656,7 @@ impl Agent {
             })
             .wait()
             .map_err(zerr)?;
-        let shared = Arc::clone(&self.shared);
-        let alive = self
-            .session
-            .liveliness()
-            .declare_subscriber(keys::alive_expr(&run))
-            .callback(move |s| {
-                if s.kind() == SampleKind::Delete {
-                    if let Some(j) = keys::id_from_key(s.key_expr().as_str()) {
-                        shared.push(Msg::Gone(j), false);
-                    }
-                }
-            })
-            .wait()
-            .map_err(zerr)?;
         self._fixed.push(ctl);
-        self._fixed.push(alive);
         if self.controller.is_some() {
             let shared = Arc::clone(&self.shared);
             let cmd = self
@@ -690,17 +685,13 @@ impl Agent {
                 self.drain(0.25)?;
             }
         }
-        let run = self.spec.run.clone();
-        let c = keys::cell_of(self.state[X], self.state[Y], self.cell);
-        // The born token first: the launcher's start barrier waits for alive tokens, so when it fires
-        // every born token is known to the router and the step-0 query sees all of them.
-        for key in [keys::born_key(&run, c, self.spec.id), keys::alive_key(&run, self.spec.id)] {
-            match self.session.liveliness().declare_token(key).wait() {
-                Ok(t) => self._tokens.push(t),
-                Err(e) => {
-                    eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
-                    return Err(Halt::Stop);
-                }
+        // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
+        // agent's cell subscribers are declared and no step-0 state is missed.
+        match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
+            Ok(t) => self._tokens.push(t),
+            Err(e) => {
+                eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
+                return Err(Halt::Stop);
             }
         }
         if self.spec.join {
@@ -712,7 +703,7 @@ impl Agent {
                 }
                 self.drain(0.25)?;
             }
-            self.discover_initial_neighbours();
+            self.initial_neighbours();
         }
         self.event("started", json!({}));
         self.t_start = Some(unix_now());
@@ -724,31 +715,15 @@ impl Agent {
         }
     }
 
-    /// Step-0 neighbours: the agents whose born token lies in a cell we watch. All cells are queried at
-    /// once, then the replies collected (one round trip, not one per cell).
-    fn discover_initial_neighbours(&mut self) {
-        let cells = keys::covering_cells(self.state[X], self.state[Y], self.r_sub, self.cell);
-        let mut pending = Vec::new();
-        for c in cells {
-            if let Ok(rx) = self
-                .session
-                .liveliness()
-                .get(keys::born_cell_expr(&self.spec.run, c))
-                .timeout(Duration::from_secs(10))
-                .wait()
-            {
-                pending.push(rx);
-            }
-        }
-        for rx in pending {
-            while let Ok(reply) = rx.recv() {
-                if let Ok(sample) = reply.result() {
-                    if let Some(j) = keys::id_from_key(sample.key_expr().as_str()) {
-                        if j != self.spec.id && !self.latest.contains_key(&j) {
-                            self.latest.insert(j, (-1, f64::NAN, f64::NAN));
-                        }
-                    }
-                }
+    /// Step-0 neighbours: of the agents the launcher placed nearby (the spec's `neighbours`), those whose
+    /// initial cell we watch — the set a query for born tokens in our cells returned before, without N × 25
+    /// liveliness queries that each walk every token in the router (docs/benchmarks/native.md, N = 1000).
+    fn initial_neighbours(&mut self) {
+        let cells: HashSet<(i64, i64)> =
+            keys::covering_cells(self.state[X], self.state[Y], self.r_sub, self.cell).into_iter().collect();
+        for &(j, x, y) in &self.spec.neighbours {
+            if j != self.spec.id && cells.contains(&keys::cell_of(x, y, self.cell)) && !self.latest.contains_key(&j) {
+                self.latest.insert(j, (-1, f64::NAN, f64::NAN));
             }
         }
     }

@@ -18,18 +18,6 @@ pub fn alive_key(run: &str, id: u32) -> String {
     format!("{PREFIX}/{run}/alive/{id}")
 }
 
-pub fn alive_expr(run: &str) -> String {
-    format!("{PREFIX}/{run}/alive/*")
-}
-
-pub fn born_key(run: &str, c: (i64, i64), id: u32) -> String {
-    format!("{PREFIX}/{run}/born/{}/{}/{id}", c.0, c.1)
-}
-
-pub fn born_cell_expr(run: &str, c: (i64, i64)) -> String {
-    format!("{PREFIX}/{run}/born/{}/{}/*", c.0, c.1)
-}
-
 pub fn ctl_expr(run: &str) -> String {
     format!("{PREFIX}/{run}/ctl/*")
 }

@@ -29,11 +29,14 @@ pub struct AgentSpec {
     pub mode: Mode,
     pub rate: f64,
     pub max_age: f64,
+    /// (id, x, y) of the agents the launcher placed near this one: the step-0 neighbours are those whose
+    /// initial cell the agent watches (docs/protocol.md, "Step 0")
+    pub neighbours: Vec<(u32, f64, f64)>,
 }
 
 const FIELDS: &[&str] = &[
     "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
-    "secret", "join", "user", "password", "mode", "rate", "max_age",
+    "secret", "join", "user", "password", "mode", "rate", "max_age", "neighbours",
 ];
 const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
@@ -73,6 +76,21 @@ fn string(obj: &Map<String, Value>, name: &str) -> Result<String, String> {
         Some(Value::String(s)) => Ok(s.clone()),
         Some(v) => err(format!("{name} must be a string, got {v}")),
     }
+}
+
+/// `neighbours`: a list of [id, x, y] (id an integer in [0, 2^31), x and y finite numbers).
+fn parse_neighbours(v: Option<&Value>) -> Result<Vec<(u32, f64, f64)>, String> {
+    let Some(v) = v else { return Ok(Vec::new()) };
+    let Some(rows) = v.as_array() else { return err(format!("neighbours must be a list of [id, x, y], got {v}")) };
+    rows.iter()
+        .map(|row| match row.as_array().map(|a| a.as_slice()) {
+            Some([id, x, y]) => match (id.as_u64(), number(x), number(y)) {
+                (Some(i), Some(x), Some(y)) if i < (1u64 << 31) => Ok((i as u32, x, y)),
+                _ => err(format!("neighbours entry must be [id, x, y] with an id in [0, 2^31) and finite x, y, got {row}")),
+            },
+            _ => err(format!("neighbours entry must be [id, x, y], got {row}")),
+        })
+        .collect()
 }
 
 fn valid_run_name(run: &str) -> bool {
@@ -240,6 +258,7 @@ impl AgentSpec {
             mode,
             rate: positive(&obj, "rate", 12.0)?,
             max_age: positive(&obj, "max_age", 1.0)?,
+            neighbours: parse_neighbours(obj.get("neighbours"))?,
         })
     }
 }
@@ -277,5 +296,11 @@ mod tests {
         let bad = GOOD.replace("\"steps\":10", "\"steps\":10,\"bogus\":1");
         assert!(AgentSpec::from_json(&bad).unwrap_err().contains("bogus"));
         assert!(AgentSpec::from_json("[").unwrap_err().contains("not JSON"));
+        let bad = GOOD.replace("\"steps\":10", "\"steps\":10,\"neighbours\":[[1,2]]");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("neighbours"));
+        let bad = GOOD.replace("\"steps\":10", "\"steps\":10,\"neighbours\":[[-1,2,3]]");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("neighbours"));
+        let good = GOOD.replace("\"steps\":10", "\"steps\":10,\"neighbours\":[[4,2.5,3]]");
+        assert_eq!(AgentSpec::from_json(&good).unwrap().neighbours, vec![(4, 2.5, 3.0)]);
     }
 }
