@@ -40,9 +40,11 @@ def _coordinator_error(coord: subprocess.Popen, source: str) -> str:
         err = coord.stderr.read().decode("utf-8", "replace") if coord.stderr else ""
     except (OSError, ValueError):
         err = ""
-    lines = [line for line in err.strip().splitlines() if line.strip()]
-    line = lines[-1] if lines else f"camera {source}: the coordinator stopped (code {coord.returncode})"
-    return line.split("error: ", 1)[-1]
+    # Its own error line, not whatever a library logged after it (FFmpeg does, closing a network stream).
+    lines = [line for line in err.splitlines() if line.startswith("fluidswarm coordinator: error: ")]
+    if not lines:
+        return f"camera {source}: the coordinator stopped (code {coord.returncode})"
+    return lines[-1].split("error: ", 1)[1]
 
 
 def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float) -> Path:

@@ -3,8 +3,11 @@ sequence as the arms move; the formation follows; bad cameras are one-line error
 
 from __future__ import annotations
 
+import http.server
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import cv2
@@ -12,6 +15,7 @@ import numpy as np
 
 from fluidswarm.recording.reader import check, load_run
 from perception.io import load_frames
+from perception.stream import FrameStream, StreamError, StreamParams
 
 REPO = Path(__file__).resolve().parents[1]
 WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"  # = shared weizmann-actions-64/wave2/person0.png
@@ -83,3 +87,43 @@ def test_unreachable_camera_is_one_line_and_exit_1(tmp_path):
     assert res.returncode == 1
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "camera /dev/video97: no such device or file" in lines[0], res.stderr
+
+
+def test_a_stream_that_stalls_is_named_with_the_problem():
+    """A network camera (MJPEG over HTTP) that sends 10 frames and then hangs with the connection open."""
+    frames = load_frames(WAVE2)[:10]
+    hang = threading.Event()
+
+    class Camera(http.server.BaseHTTPRequestHandler):
+        def do_GET(self):
+            self.send_response(200)
+            self.send_header("Content-Type", "multipart/x-mixed-replace; boundary=frame")
+            self.end_headers()
+            for f in frames:
+                jpg = cv2.imencode(".jpg", f)[1].tobytes()
+                self.wfile.write(b"--frame\r\nContent-Type: image/jpeg\r\nContent-Length: %d\r\n\r\n" % len(jpg)
+                                 + jpg + b"\r\n")
+                self.wfile.flush()
+                time.sleep(0.05)
+            hang.wait(30)
+
+        def log_message(self, *args):
+            pass
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Camera)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    url = f"http://127.0.0.1:{server.server_address[1]}/camera.mjpg"
+    seen = 0
+    try:
+        with FrameStream(url, StreamParams(fps=20, stall_seconds=1.0)) as stream:
+            try:
+                while True:
+                    stream.next()
+                    seen += 1
+            except StreamError as exc:
+                message = str(exc)
+    finally:
+        hang.set()
+        server.shutdown()
+    assert seen == 10
+    assert message.startswith(f"camera {url}: the stream stalled (no frame for ")
