@@ -16,6 +16,10 @@ def measure(ctx: Context) -> list[Group]:
     g = Group("Decentralised particles (thesis §1.4.2, §7.1, Fig. 3.5)")
     if ctx.quick:
         return []
+    g.notes.append(
+        f"`fluidswarm verify --agents {AGENTS} --steps {STEPS}`: a Zenoh router and {AGENTS} compiled agent processes "
+        "(`agent/native`), each knowing its neighbours only from their messages, against the per-particle "
+        "reference driver from the same start (the `verify` set-up, every SPH term active).")
     cmd = [sys.executable, "-m", "fluidswarm", "verify", "--agents", str(AGENTS), "--steps", str(STEPS)]
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=180)

@@ -17,6 +17,11 @@ THESIS = {"scissor": (187, 126), "cylindrical": (214, 136), "pinching": (219, 14
 
 def measure(ctx: Context) -> list[Group]:
     g = Group("Imitation times (thesis §6.3, Table 6.1)")
+    g.notes.append(
+        "The 300-agent gesture imitations are not re-run here (minutes of both cores): their times come from the "
+        "latest `fluidswarm bench` (docs/benchmarks/results.json; fill controller, compiled agents, recorder and "
+        "coordinator included, ends when the formation has settled). The step-size relation is timed on the "
+        "reference driver under the reading 'step size = time step'.")
     try:
         bench = json.loads(RESULTS.read_text())
         secs, iou, n = bench["gesture_imitation_seconds"], bench["gesture_imitation_fidelity_iou"], bench["gesture_agents"]
