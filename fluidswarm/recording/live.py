@@ -8,12 +8,16 @@ protocol is served by the `foxglove-sdk` package (subprotocol `foxglove.sdk.v1`,
 A viewer never slows the swarm: agents do not wait for the recorder at all, and the recorder only
 queues each message for each client (`BACKLOG` messages per client; when a slow or stuck viewer lets the
 queue fill, the SDK drops that client's oldest messages). A viewer loses frames, the swarm loses no step.
+
+What is written once at the start (the target's outline, the perception picture) is kept and sent again
+whenever a viewer subscribes, so a viewer that connects mid-run sees it too.
 """
 
 from __future__ import annotations
 
 import errno
 import socket
+import threading
 from dataclasses import dataclass
 
 from fluidswarm.errors import UserError
@@ -98,32 +102,50 @@ class LiveServer:
         import foxglove
 
         self._context = foxglove.Context()
+        self._latched: dict[str, tuple[str, bytes, int]] = {}  # key -> (leaf, data, log time)
+        self._subscribed = threading.Event()
+        self._closed = threading.Event()
         # Raises RuntimeError ("Failed to bind port ...") if the address is taken.
         self.server = foxglove.start_server(name=f"{SERVER_NAME} {run}", host=address.host, port=address.port,
-                                            context=self._context, message_backlog_size=BACKLOG)
+                                            context=self._context, message_backlog_size=BACKLOG,
+                                            server_listener=_Listener(self._subscribed))
         self._channels = {}
         for leaf, name in sc.TOPIC_SCHEMAS.items():
             schema = foxglove.Schema(name=name, encoding=sc.SCHEMA_ENCODING, data=sc.schema_bytes(name))
             self._channels[leaf] = foxglove.Channel(sc.topic(run, leaf), schema=schema,
                                                     message_encoding=sc.MESSAGE_ENCODING, context=self._context)
         self.dropped = 0  # messages the SDK refused (never raised into the recorder)
+        threading.Thread(target=self._resend, name="live-latched", daemon=True).start()
 
     @property
     def port(self) -> int:
         return self.server.port
 
-    def publish(self, leaf: str, data: bytes, log_time_ns: int) -> None:
-        """Queue `data` (the MCAP message's bytes) for every subscribed viewer; never blocks."""
+    def publish(self, leaf: str, data: bytes, log_time_ns: int, latch: str | None = None) -> None:
+        """Queue `data` (the MCAP message's bytes) for every subscribed viewer; never blocks. With `latch`,
+        it is also kept under that key and sent again to each viewer that subscribes later."""
+        if latch is not None:
+            self._latched[latch] = (leaf, data, log_time_ns)
         try:
             self._channels[leaf].log(data, log_time=log_time_ns)
         except Exception:  # a live view must never stop the recording
             self.dropped += 1
 
+    def _resend(self) -> None:
+        # Not from the listener itself: it runs on the server's own thread, which must not wait on a send.
+        while not self._closed.is_set():
+            if not self._subscribed.wait(0.5):
+                continue
+            self._subscribed.clear()
+            self._closed.wait(0.1)  # let the subscription take effect
+            for leaf, data, log_time in list(self._latched.values()):
+                self.publish(leaf, data, log_time)
+
     def close(self, timeout: float = 1.0) -> bool:
         """Stop the server; False if it had not stopped after `timeout` s. Its stop waits for every viewer to
         take its queued messages, which a stuck viewer never does (measured: the recorder hung until the
         launcher's 60 s SIGKILL), so it runs on a daemon thread and the caller may exit without it."""
-        import threading
+        self._closed.set()
 
         def stop() -> None:
             try:
@@ -135,3 +157,16 @@ class LiveServer:
         t.start()
         t.join(timeout)
         return not t.is_alive()
+
+
+class _Listener:
+    """foxglove.websocket.ServerListener: says when a viewer subscribes."""
+
+    def __init__(self, subscribed: threading.Event):
+        self.subscribed = subscribed
+
+    def on_subscribe(self, client, channel) -> None:
+        self.subscribed.set()
+
+    def on_unsubscribe(self, client, channel) -> None:  # the SDK calls it on every disconnect
+        pass

@@ -190,7 +190,7 @@ class RunWriter:
         self._queue.put(op)
         return True
 
-    def _write(self, leaf: str, t: float, payload: dict, sequence: int = 0) -> bool:
+    def _write(self, leaf: str, t: float, payload: dict, sequence: int = 0, latch: str | None = None) -> bool:
         log_time = sc.seconds_to_ns(t)
         data = _dumps(payload)
 
@@ -200,8 +200,8 @@ class RunWriter:
 
         if not self._submit(op):
             return False
-        if self._live is not None:
-            self._live.publish(leaf, data, log_time)
+        if self._live is not None:  # latch: kept for viewers that connect later (recording/live.py)
+            self._live.publish(leaf, data, log_time, latch)
         return True
 
     def _channel(self, leaf: str) -> int:
@@ -316,7 +316,7 @@ class RunWriter:
 
         if not self._submit(op):
             return False
-        return self._write(sc.SCENE, t, payload)
+        return self._write(sc.SCENE, t, payload, latch="target")
 
     def write_command(self, t: float, command_json: str) -> bool:
         """A gesture command (a JSON object, as published) on `fluidswarm/<run>/command`."""
@@ -332,7 +332,7 @@ class RunWriter:
         """The perception input as `foxglove.CompressedImage` on `fluidswarm/<run>/perception/image`."""
         payload = {"timestamp": sc.stamp(t), "frame_id": str(frame_id),
                    "data": base64.b64encode(bytes(jpeg_bytes)).decode("ascii"), "format": fmt}
-        return self._write(sc.IMAGE, t, payload)
+        return self._write(sc.IMAGE, t, payload, latch=f"image/{frame_id}")
 
     def write_event(self, t: float, level: int | str, name: str, message: str, *, kind: str | None = None,
                     agent: int | None = None, step: int | None = None) -> bool:
