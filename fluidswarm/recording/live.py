@@ -68,6 +68,8 @@ def check_free(address: LiveAddress) -> None:
         raise UserError(f"--live {address}: unknown host ({exc.strerror})") from None
     family, kind, proto, _name, sockaddr = infos[0]
     with socket.socket(family, kind, proto) as s:
+        # As the server binds (SO_REUSEADDR): a port left in TIME_WAIT by the last run is free, a listener is not.
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind(sockaddr)
         except OSError as exc:
