@@ -37,6 +37,9 @@ const BEHIND_STEPS: u32 = 5;
 const LAG_WAIT_STEPS: i64 = 3;
 /// Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
 const CLOCK_LEAD: u64 = 3;
+/// the least an agent waits for a neighbour in the first steps, s (see wait_for_states)
+const START_BURST_TIMEOUT: f64 = 15.0;
+const START_BURST_STEPS: u32 = 4;
 
 pub const EXIT_OK: i32 = 0;
 pub const EXIT_FELL_BEHIND: i32 = 3;
@@ -469,6 +472,16 @@ impl Agent {
             self.counters.dropped_out += 1;
             return;
         }
+        self.declare_publisher();
+        let class = self.controller.as_ref().map_or(0, |c| c.particle_class());
+        let record = wire::encode_state(self.spec.id, self.step, &self.state, class);
+        if let Some((_, p)) = &self.publisher {
+            let _ = p.put(record.to_vec()).wait();
+        }
+    }
+
+    /// The state publisher of our current cell (declared once per cell: its key becomes a numeric id).
+    fn declare_publisher(&mut self) {
         let c = keys::cell_of(self.state[X], self.state[Y], self.cell);
         if self.publisher.as_ref().map(|(pc, _)| *pc) != Some(c) {
             self.publisher = None; // undeclare the previous cell's publisher first
@@ -485,11 +498,6 @@ impl Agent {
                 Ok(p) => self.publisher = Some((c, p)),
                 Err(_) => return,
             }
-        }
-        let class = self.controller.as_ref().map_or(0, |c| c.particle_class());
-        let record = wire::encode_state(self.spec.id, self.step, &self.state, class);
-        if let Some((_, p)) = &self.publisher {
-            let _ = p.put(record.to_vec()).wait();
         }
     }
 
@@ -541,7 +549,11 @@ impl Agent {
     }
 
     fn wait_for_states(&mut self, expected: &HashSet<u32>) -> Result<(), Halt> {
-        let timeout = self.spec.timeout;
+        // The first steps follow the start barrier: every expected agent is up (or reported gone by ctl/gone),
+        // only the start burst (N agents woken at once, their first routes computed) delays them — beyond the
+        // 2 s timeout at N = 1000 (hundreds of neighbour timeouts at steps 0-2, none later).
+        let burst = self.step < START_BURST_STEPS && !self.spec.join;
+        let timeout = if burst { self.spec.timeout.max(START_BURST_TIMEOUT) } else { self.spec.timeout };
         let start = Instant::now();
         let deadline = start + Duration::from_secs_f64(timeout);
         let mut resend_at = start + Duration::from_secs_f64(timeout / 4.0);
@@ -686,7 +698,9 @@ impl Agent {
             }
         }
         // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
-        // agent's cell subscribers are declared and no step-0 state is missed.
+        // agent's cell subscribers are declared and no step-0 state is missed. The state publisher too: 1000
+        // publisher declarations in the start burst delayed step-0 states past the neighbour timeout.
+        self.declare_publisher();
         match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
             Ok(t) => self._tokens.push(t),
             Err(e) => {
