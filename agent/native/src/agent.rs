@@ -285,6 +285,10 @@ impl Agent {
             Msg::Ctl(key, payload) => {
                 if key.ends_with("/start") {
                     self.started = true;
+                    // Paced from the first step: until the launcher's first tick (it ticks once it has seen
+                    // states) an agent with few expected neighbours would race CLOCK_LEAD+ steps ahead and
+                    // make its slower neighbours conclude they fell behind.
+                    self.clock.get_or_insert(0);
                 } else if key.ends_with("/stop") {
                     return Err(Halt::Stop);
                 } else if key.ends_with("/clock") && payload.len() == 8 {
@@ -556,7 +560,10 @@ impl Agent {
         let timeout = if burst { self.spec.timeout.max(START_BURST_TIMEOUT) } else { self.spec.timeout };
         let start = Instant::now();
         let deadline = start + Duration::from_secs_f64(timeout);
-        let mut resend_at = start + Duration::from_secs_f64(timeout / 4.0);
+        // Republished at the normal pace even in the start burst: a neighbour that lost our state (drop-out)
+        // must not wait a quarter of the longer burst timeout.
+        let resend_every = Duration::from_secs_f64(self.spec.timeout / 4.0);
+        let mut resend_at = start + resend_every;
         loop {
             self.drain(0.0)?;
             let step = self.step;
@@ -580,7 +587,7 @@ impl Agent {
             if now >= resend_at {
                 // Lossy links: say it again while waiting (a neighbour that missed our state waits too).
                 self.publish();
-                resend_at = now + Duration::from_secs_f64(timeout / 4.0);
+                resend_at = now + resend_every;
             }
             if now >= deadline {
                 let mut ids: Vec<u32> = missing.iter().copied().collect();
