@@ -15,7 +15,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use serde_json::{json, Map, Value};
-use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::pubsub::Subscriber;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::Locality;
 use zenoh::key_expr::KeyExpr;
@@ -180,7 +180,8 @@ pub struct Agent {
     session: Session,
     /// per watched cell: its subscriber and the declared key (a numeric id on the link, undeclared with it)
     subscribers: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
-    publisher: Option<((i64, i64), Publisher<'static>)>,
+    /// our current cell and its declared key (states are put on it, see declare_publisher)
+    publisher: Option<((i64, i64), KeyExpr<'static>)>,
     _fixed: Vec<Subscriber<()>>,
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
     buffer: BTreeMap<u32, BTreeMap<u32, State>>,
@@ -479,28 +480,31 @@ impl Agent {
         self.declare_publisher();
         let class = self.controller.as_ref().map_or(0, |c| c.particle_class());
         let record = wire::encode_state(self.spec.id, self.step, &self.state, class);
-        if let Some((_, p)) = &self.publisher {
-            let _ = p.put(record.to_vec()).wait();
-        }
-    }
-
-    /// The state publisher of our current cell (declared once per cell: its key becomes a numeric id).
-    fn declare_publisher(&mut self) {
-        let c = keys::cell_of(self.state[X], self.state[Y], self.cell);
-        if self.publisher.as_ref().map(|(pc, _)| *pc) != Some(c) {
-            self.publisher = None; // undeclare the previous cell's publisher first
-            // Block, not Drop: a lost state costs the lockstep swarm a republish round (timeout/4).
-            match self
+        if let Some((_, key)) = &self.publisher {
+            let _ = self
                 .session
-                .declare_publisher(keys::state_key(&self.spec.run, c))
+                .put(key.clone(), record.to_vec())
                 .congestion_control(self.tuning.congestion)
                 .express(self.tuning.express)
                 // Our own cell's subscriber would otherwise get our state back (a local match per put)
                 .allowed_destination(Locality::Remote)
-                .wait()
-            {
-                Ok(p) => self.publisher = Some((c, p)),
-                Err(_) => return,
+                .wait();
+        }
+    }
+
+    /// The declared key of our current cell (a numeric id on the link). States go out with `session.put`,
+    /// not a declared Publisher: a publisher's subscriber interest, once finalized, makes the client drop
+    /// puts for which it has not yet heard of a matching subscriber (zenoh's write-side filtering), and a
+    /// publisher re-declared on entering a cell could lose its first state that way — a neighbour then
+    /// waited for it until the timeout. A plain put on a key without interest always goes to the router.
+    fn declare_publisher(&mut self) {
+        let c = keys::cell_of(self.state[X], self.state[Y], self.cell);
+        if self.publisher.as_ref().map(|(pc, _)| *pc) != Some(c) {
+            if let Some((_, old)) = self.publisher.take() {
+                let _ = self.session.undeclare(old).wait();
+            }
+            if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c)).wait() {
+                self.publisher = Some((c, key));
             }
         }
     }
