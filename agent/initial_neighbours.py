@@ -15,9 +15,9 @@ from agent.sph.params import SPHParams
 
 
 def reach(params: SPHParams) -> float:
-    """Distance [m] beyond which no agent can be in a watched cell: R_sub (kernel support + 6 steps at v_max,
+    """Distance [m] beyond which no agent can be in a watched cell: R_sub (kernel support + 10 steps at v_max,
     agent/native/src/agent.rs) plus a cell's diagonal (cells are squares of side h)."""
-    return params.support + 6.0 * params.max_step_displacement + 1.5 * params.h
+    return params.support + 10.0 * params.max_step_displacement + 1.5 * params.h
 
 
 def initial_neighbours(ids, positions: np.ndarray, params: SPHParams) -> dict[int, list[list[float]]]:

@@ -214,7 +214,9 @@ impl Agent {
         let params = spec.params.clone();
         let d = params.max_step_displacement();
         let cell = params.h;
-        let r_sub = params.support() + 6.0 * d;
+        // 2h + 10 v_max dt: a sighting up to 4 steps old is expected within 2h + 6 v_max dt, and every cell
+        // the neighbour can have moved to since must be watched (docs/protocol.md, "Expected agents")
+        let r_sub = params.support() + 10.0 * d;
         let [x, y, vx, vy] = spec.initial;
         let state = sph::initial_state(x, y, vx, vy, &params);
         // splitmix64 seeded by the id: the drop-out failure injection is reproducible per agent.
@@ -596,11 +598,17 @@ impl Agent {
             if now >= deadline {
                 let mut ids: Vec<u32> = missing.iter().copied().collect();
                 ids.sort_unstable();
+                // What the agent knew of each: last sighting's step, its distance, whether its cell is watched
+                let mut seen = Vec::new();
                 for j in &ids {
-                    self.latest.remove(j);
+                    if let Some((s, jx, jy)) = self.latest.remove(j) {
+                        let dist = (jx - self.state[X]).hypot(jy - self.state[Y]);
+                        let watched = !jx.is_nan() && self.subscribers.contains_key(&keys::cell_of(jx, jy, self.cell));
+                        seen.push(json!([j, s, if dist.is_finite() { json!(dist) } else { Value::Null }, watched]));
+                    }
                     self.counters.timeouts += 1;
                 }
-                self.event("neighbour_timeout", json!({"neighbours": ids}));
+                self.event("neighbour_timeout", json!({"neighbours": ids, "last_seen": seen}));
                 return Ok(());
             }
             // Arm the bell: the receiving thread rings when the last of `missing` has been heard.
