@@ -20,6 +20,17 @@ from fluidswarm.plotting import plot_formation
 from fluidswarm.recording.fidelity import fidelity, format_fidelity
 
 
+def stop_coordinator(coord: subprocess.Popen) -> None:
+    """SIGTERM the coordinator process (it closes its session), SIGKILL after 10 s."""
+    if coord.poll() is None:
+        coord.terminate()
+    try:
+        coord.wait(10)
+    except subprocess.TimeoutExpired:
+        coord.kill()
+        coord.wait()
+
+
 @dataclass
 class ImitationResult:
     mcap: Path
@@ -99,12 +110,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
             finally:
                 if watch is not None:
                     watch.stop()
-                if coord.poll() is None:
-                    coord.terminate()
-                try:
-                    coord.wait(10)
-                except subprocess.TimeoutExpired:
-                    coord.kill()
+                stop_coordinator(coord)
     done = {i: r for i, r in res.finals.items() if r.get("status") == "done"}
     ids = sorted(done)
     pos = np.array([done[i]["state"][:2] for i in ids]) if ids else np.empty((0, 2))

@@ -24,7 +24,7 @@ import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
 from coordinator.camera import load_observation
-from coordinator.imitate import ImitationResult
+from coordinator.imitate import ImitationResult, stop_coordinator
 from coordinator.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
 from fluidswarm.errors import UserError
 from fluidswarm.plotting import plot_formation
@@ -120,13 +120,7 @@ def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, ou
             latest = load_observation(tmp / "latest.npz")
         finally:
             watch.stop()
-            if coord.poll() is None:
-                coord.terminate()
-            try:
-                coord.wait(10)
-            except subprocess.TimeoutExpired:
-                coord.kill()
-                coord.wait()
+            stop_coordinator(coord)
     if watch.failed or (coord.returncode not in (0, -15, None)):
         raise UserError(f"{_coordinator_error(coord, source)} (recorded so far: {mcap})")
     done = {i: r for i, r in res.finals.items() if r.get("status") == "done"}

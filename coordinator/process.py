@@ -111,13 +111,10 @@ def main(argv: list[str] | None = None) -> int:
     except (InputError, SegmentationError) as exc:
         print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
         return 1
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    stop = _stop_on_signals()
     session = zenoh.open(client_config([args.connect], args.user, args.password))
     try:
-        pub = session.declare_publisher(keys.command_key(args.run))
-        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
+        pub, token = _declare_command_publisher(session, args.run)
         clock = None
         if args.frame_steps:
             clock = SwarmClock()
@@ -138,6 +135,20 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _stop_on_signals() -> threading.Event:
+    """An event set by SIGTERM or SIGINT: the publishing loop ends and the session closes cleanly."""
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: stop.set())
+    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    return stop
+
+
+def _declare_command_publisher(session, run: str):
+    """The command publisher and the coordinator's liveliness token (docs/protocol.md)."""
+    return (session.declare_publisher(keys.command_key(run)),
+            session.liveliness().declare_token(f"{keys.PREFIX}/{run}/coordinator"))
+
+
 def _camera(args, secret: bytes) -> int:
     """The live source (coordinator/camera.py): commands as the observed gesture changes."""
     from pathlib import Path
@@ -150,13 +161,10 @@ def _camera(args, secret: bytes) -> int:
     except ValueError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 2
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    stop = _stop_on_signals()
     session = zenoh.open(client_config([args.connect], args.user, args.password))
     try:
-        pub = session.declare_publisher(keys.command_key(args.run))
-        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
+        pub, token = _declare_command_publisher(session, args.run)
         observations = Path(args.observations) if args.observations else None
         run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations)
     except StreamError as exc:
