@@ -36,6 +36,9 @@ def imitate(path: Path, out: Path, agents: int, steps: int, *extra: str):
     run = load_run(figures["mcap"], images=False)
     last = run.frames[-1]
     assert len(last.ids) == agents
+    # The file keeps its own score (metadata `fidelity`): the same figures the command printed.
+    for key in ("fidelity_iou", "nn_cv"):
+        assert abs(run.fidelity[key] - float(figures[key])) <= 1e-4, (key, run.fidelity, figures[key])
     order = np.argsort(last.ids)
     return last.ids[order], last.positions[order], figures
 

@@ -17,7 +17,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("run", metavar="RUN.mcap", help="the recording")
     p.add_argument("--out", metavar="DIR", help="output directory (default: RUN_replay/ beside the file)")
     p.add_argument("--check", action="store_true",
-                   help="print complete=, steps=, missing_states=; exit 0 if complete else 1")
+                   help="print complete=, steps=, missing_states= (and the recorded fidelity, if any); exit 0 if complete else 1")
     p.add_argument("--max-frames", type=int, default=120, metavar="N", help="GIF frames at most (default 120)")
     p.add_argument("--fps", type=float, default=10.0, help="GIF frame rate (default 10)")
     p.set_defaults(func=_main)
@@ -25,8 +25,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _main(args: argparse.Namespace) -> int:
     if args.check:
-        c = completeness(load_run(args.run, images=False))
+        run = load_run(args.run, images=False)
+        c = completeness(run)
         print(c.lines())
+        for key, value in run.fidelity.items():  # the score the recorder kept with the run
+            print(f"recorded_{key}={value:.4f}")
         return 0 if c.complete else 1
     from fluidswarm.recording.replay import replay  # matplotlib only when rendering
 

@@ -89,6 +89,7 @@ class Run:
     images: list[Image] = field(default_factory=list)
     targets: list[Target] = field(default_factory=list)
     schemas: dict[str, str] = field(default_factory=dict)  # topic -> schema name
+    fidelity: dict = field(default_factory=dict)  # the recorder's score of the final formation (metadata `fidelity`)
 
     @property
     def steps(self) -> np.ndarray:
@@ -169,13 +170,16 @@ def _read(path: Path, reader, want_images: bool) -> Run:
     summary = reader.get_summary()
     if summary is None:
         raise ValueError("no summary section")
-    metadata, target_meta = {}, {}
+    metadata, target_meta, scores = {}, {}, {}
     for record in reader.iter_metadata():
         if record.name == "run":
             metadata = decode_metadata(record.metadata)
+        elif record.name == "fidelity":
+            scores = decode_metadata(record.metadata)
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
-    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata)
+    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata,
+              fidelity={k: float(v) for k, v in scores.items() if isinstance(v, (int, float))})
     for att in reader.iter_attachments():
         meta = target_meta.get(att.name)
         if meta is None:

@@ -29,6 +29,7 @@ from agent import keys
 from agent.session import client_config
 from agent.sph.particle import P, RHO, VX, VY, X, Y
 from agent.wire import decode_state
+from fluidswarm.recording.fidelity import fidelity
 from fluidswarm.recording.writer import RunWriter
 
 RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
@@ -48,6 +49,7 @@ class Recorder:
         # the swarm's step when they hear it), so the recorder expects them only from then on.
         self.joining: set[int] = set()
         self.last_step: dict[int, int] = {}
+        self.last_positions: np.ndarray | None = None  # of the last step written (scored at the end)
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.next_step = 0
@@ -167,6 +169,7 @@ class Recorder:
         vals = np.array([have[j][1] for j in ids])
         cls = np.array([have[j][0] for j in ids], dtype=np.int64)
         self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
+        self.last_positions = vals[:, [X, Y]]
 
     def _flush(self, upto: int | None = None, force: bool = False) -> None:
         while self.next_step <= self.newest:
@@ -247,11 +250,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"fluidswarm record: error: --live {args.live}: {exc}", file=sys.stderr)
             return 2
     writer = RunWriter(args.out, metadata, live=live)
+    target = None
     if args.target:
         from fluidswarm.geometry import ImageToDomain
 
         with np.load(args.target) as t:
-            writer.write_target(0.0, t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))
+            target = (t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))
+        writer.write_target(0.0, *target)
     if args.image:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
@@ -275,6 +280,8 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         recorder.finish()
+        if target is not None and recorder.last_positions is not None:
+            writer.write_fidelity(fidelity(*target, recorder.last_positions))
         writer.close()
         try:
             session.close()

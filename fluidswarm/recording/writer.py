@@ -318,6 +318,13 @@ class RunWriter:
             return False
         return self._write(sc.SCENE, t, payload, latch="target")
 
+    def write_fidelity(self, fidelity) -> bool:
+        """The final formation's score (fidelity_iou, fidelity_inside, fidelity_coverage, nn_cv) as metadata
+        record `fidelity`, so a file carries its own verdict (issue 15) without re-scoring."""
+        values = {"fidelity_iou": float(fidelity.iou), "fidelity_inside": float(fidelity.inside),
+                  "fidelity_coverage": float(fidelity.coverage), "nn_cv": float(fidelity.nn_cv)}
+        return self._submit(lambda: self._mcap.add_metadata("fidelity", encode_metadata(values)))
+
     def write_command(self, t: float, command_json: str) -> bool:
         """A gesture command (a JSON object, as published) on `fluidswarm/<run>/command`."""
         try:
