@@ -6,13 +6,13 @@ import sys
 
 import numpy as np
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.recording.live import add_live_argument, live_from_args
 
 
 def register(sub) -> None:
     p = sub.add_parser("agent", help="run one particle agent process (normally started by the launcher)")
-    p.add_argument("--spec", required=True, help="start-up parameters as JSON (agent/spec.py)")
+    p.add_argument("--spec", required=True, help="start-up parameters as JSON (agent/protocol/spec.py)")
     p.set_defaults(func=_agent)
 
     p = sub.add_parser("launch", help="start N agent processes on this host and run them in lockstep")

@@ -27,13 +27,13 @@ from typing import Callable
 import numpy as np
 import zenoh
 
-from agent import keys
+from agent.protocol import keys
 from agent.executable import agent_executable
 from agent.initial_neighbours import initial_neighbours
-from agent.session import router_config
-from agent.spec import AgentSpec
+from agent.protocol.session import router_config
+from agent.protocol.spec import AgentSpec
 from agent.sph.particle import Control
-from agent.wire import STATE_SIZE
+from agent.protocol.wire import STATE_SIZE
 
 _ID_STEP = struct.Struct("<II")
 _CLOCK = struct.Struct("<Q")
@@ -130,7 +130,7 @@ class Launcher:
         self._socket_dir = None
         if connect:
             self.endpoint = connect
-            from agent.session import client_config
+            from agent.protocol.session import client_config
             conf = client_config([connect], user, password)
             self.agent_endpoint = connect
         else:

@@ -1,7 +1,7 @@
 """A live source for the coordinator: a person watched by a camera, a network stream or a video file.
 
 Frames are taken as they come (perception/stream.py, at most `--fps` per second). Each observed frame is
-read with the last `window` observed frames as a static-camera clip (coordinator/observe.py: the person's
+read with the last `window` observed frames as a static-camera clip (coordinator/control/observe.py: the person's
 silhouette, arms and recognised pose); the person's box is tracked with the Kalman filter of
 perception/tracking.py. A new command (next sequence number) is issued only when the recognised gesture
 changed and held for `label_hold` observations, or the silhouette changed beyond a threshold (its IoU with
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coordinator.observe import Observation, observe
+from coordinator.control.observe import Observation, observe
 from perception.tracking import BoxKalman, box_to_centre
 
 # observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
@@ -137,8 +137,8 @@ def run_camera(source: str, stream_params, n_agents: int, controller: str, secre
                period: float, observations: Path | None, rule: ChangeRule = ChangeRule()) -> None:
     """Observe `source` until `stop`, publishing signed commands on `pub` (republished every `period` s
     by a side thread, so late joiners get one while a frame is being read). Raises StreamError."""
-    from coordinator.fill import ShapeError
-    from coordinator.imitation_setup import build_command, transform_for
+    from coordinator.control.fill import ShapeError
+    from coordinator.control.imitation_setup import build_command, transform_for
     from perception.stream import FrameStream
 
     current: list[bytes] = []

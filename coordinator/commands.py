@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.recording.live import add_live_argument, live_from_args
 
 
@@ -36,9 +36,9 @@ def _coordinator(args) -> int:
 
 
 def _imitate(args) -> int:
-    from coordinator.fill import ShapeError
+    from coordinator.control.fill import ShapeError
     from coordinator.imitate import imitate
-    from coordinator.imitation_setup import DEFAULT_STEPS
+    from coordinator.control.imitation_setup import DEFAULT_STEPS
     from perception.io import InputError
     from perception.segmentation import SegmentationError
 
@@ -71,7 +71,7 @@ def _imitate(args) -> int:
 
 
 def _print_result(res) -> None:
-    from fluidswarm.recording.fidelity import format_fidelity
+    from coordinator.control.fidelity import format_fidelity
 
     print(format_fidelity(res.fidelity))
     print(f"formation_seconds={res.formation_seconds:.2f}")

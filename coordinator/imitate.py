@@ -14,10 +14,10 @@ import cv2
 import numpy as np
 
 from agent.launcher import Launcher, _die_with_parent, run_swarm
-from coordinator.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_input
-from coordinator.settle import SettleRule, SettleWatch
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_input
+from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.plotting import plot_formation
-from fluidswarm.recording.fidelity import fidelity, format_fidelity
+from coordinator.control.fidelity import fidelity, format_fidelity
 
 
 def stop_coordinator(coord: subprocess.Popen) -> None:
@@ -56,7 +56,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
     each shown for `frame_steps` swarm steps). `sph`/`dt` override the imitation's SPH parameters; `mode`,
     `rate`, `max_age` choose lockstep or asynchronous agents (docs/protocol.md). `launcher_hook(launcher, im)`
     runs before the agents start; `launcher.spawn_late(count)` then starts late joiners. A single frame ends
-    when its formation has settled (`settle`, coordinator/settle.py; None: always `steps` steps); a sequence
+    when its formation has settled (`settle`, coordinator/control/settle.py; None: always `steps` steps); a sequence
     runs its `steps`, switching gestures on the run's clock. `live` (HOST:PORT): the recorder also streams
     the run to Foxglove (fluidswarm/recording/live.py)."""
     out = Path(out)

@@ -25,10 +25,10 @@ import numpy as np
 from agent.launcher import Launcher, _die_with_parent, run_swarm
 from coordinator.camera import load_observation
 from coordinator.imitate import ImitationResult, stop_coordinator
-from coordinator.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
-from fluidswarm.errors import UserError
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
+from agent.protocol.errors import UserError
 from fluidswarm.plotting import plot_formation
-from fluidswarm.recording.fidelity import fidelity
+from coordinator.control.fidelity import fidelity
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step

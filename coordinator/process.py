@@ -21,8 +21,8 @@ import threading
 
 import zenoh
 
-from agent import keys
-from agent.session import client_config
+from agent.protocol import keys
+from agent.protocol.session import client_config
 
 
 def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: int | None = None):
@@ -34,7 +34,7 @@ def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: in
 
 def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | None = None):
     """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
-    from coordinator.imitation_setup import build_command, observations_for, transform_for
+    from coordinator.control.imitation_setup import build_command, observations_for, transform_for
 
     _frames, obs, k = observations_for(path, frame)
     shown = [obs[k]] if frame is not None else obs

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from coordinator.imitate import imitate
-from coordinator.imitation_setup import DEFAULT_STEPS
-from fluidswarm.errors import UserError
+from coordinator.control.imitation_setup import DEFAULT_STEPS
+from agent.protocol.errors import UserError
 
 
 def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None, live: str = ""):
@@ -14,7 +14,7 @@ def run_imitation_scenario(sc, agents: int, out: Path, watch: dict | None = None
 
     `watch` receives the run's launcher and failure injector (for the robustness figures); `live` (HOST:PORT)
     streams the run to Foxglove."""
-    from coordinator.fill import ShapeError
+    from coordinator.control.fill import ShapeError
     from fluidswarm.failures import FailureInjector
     from fluidswarm.scenario_commands import ProgressLine, RunSummary
     from perception.io import InputError

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 
 FULL_NS = (25, 50, 100, 200, 300, 1000)
 FIT_MAX_N = 300  # the step-time exponent is fitted over N <= 300 (issue 14); N = 1000 is recorded beside it
@@ -145,9 +145,9 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict]
 def region_controller_timing() -> dict:
     """Region controller per video frame: person regions (median background over the clip) + ellipses +
     the command, on the shipped Weizmann clip; and on one shipped hand photograph."""
-    from coordinator.imitation_setup import build_command
-    from coordinator.observe import observe
-    from coordinator.region import fit_transform
+    from coordinator.control.imitation_setup import build_command
+    from coordinator.control.observe import observe
+    from coordinator.control.region import fit_transform
     from perception.io import load_frames
 
     inputs = Path(__file__).resolve().parent.parent / "scenarios" / "inputs"

@@ -12,7 +12,7 @@ import importlib
 import signal
 import sys
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 
 # Modules that contribute subcommands, in the order they appear in `--help`.
 COMMAND_MODULES = (

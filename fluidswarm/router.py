@@ -12,8 +12,8 @@ import threading
 
 import zenoh
 
-from agent.session import router_config
-from fluidswarm.errors import UserError
+from agent.protocol.session import router_config
+from agent.protocol.errors import UserError
 
 
 def register(sub) -> None:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from agent.sph.params import SPHParams
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 
 CONTROLLERS = ("fill", "region", "pca", "ann", "none")
 SYNC_MODES = ("lockstep", "async")
@@ -41,7 +41,7 @@ class Failure:
 class PassCriteria:
     """The run fails (non-zero exit) when a figure misses its bound (0 / false: not checked).
 
-    min_fidelity_iou     final formation vs target silhouette (fluidswarm/recording/fidelity.py)
+    min_fidelity_iou     final formation vs target silhouette (coordinator/control/fidelity.py)
     min_fidelity_inside  share of particles inside the silhouette
     max_nn_cv            uniformity: coefficient of variation of nearest-neighbour distances (clumps: high)
     min_branch_gap       m, edge-branch separation of the branching experiment

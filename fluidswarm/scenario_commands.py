@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario
 

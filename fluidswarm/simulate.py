@@ -6,7 +6,7 @@ import time
 
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import branching
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.plotting import plot_formation
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 
 COMPONENTS = (5, 15, 30, 35, 50, 100)
 

@@ -15,13 +15,13 @@ import time
 import numpy as np
 import zenoh
 
-from agent import keys
+from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
-from agent.session import client_config
+from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
-from agent.wire import STATE_SIZE, encode_state
+from agent.protocol.wire import STATE_SIZE, encode_state
 from tests.swarm_helpers import children_of, is_running
 
 

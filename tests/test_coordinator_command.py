@@ -14,10 +14,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from agent.route import CommandFollower, RouteFollower, class_counts, class_of
+from coordinator.control.route import CommandFollower, RouteFollower, class_counts, class_of
 from agent.sph.particle import NFIELDS, X, Y, Control
-from coordinator.command import CommandRejected, Waypoint, _canonical, decode
-from coordinator.imitation_setup import prepare_input
+from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode
+from coordinator.control.imitation_setup import prepare_input
 from coordinator.process import commands_for_frames
 
 REPO = Path(__file__).resolve().parent.parent

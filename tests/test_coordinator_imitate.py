@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agent.route import class_of
-from coordinator.imitation_setup import prepare_input
+from coordinator.control.route import class_of
+from coordinator.control.imitation_setup import prepare_input
 from fluidswarm.recording.reader import load_run
 
 REPO = Path(__file__).resolve().parent.parent

@@ -17,14 +17,14 @@ import numpy as np
 import pytest
 import zenoh
 
-from agent import keys
+from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
-from agent.route import class_counts, class_of, followers_for
-from agent.session import client_config
+from coordinator.control.route import class_counts, class_of, followers_for
+from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
-from coordinator.command import CommandRejected, decode
-from coordinator.imitation_setup import prepare
+from agent.protocol.command import CommandRejected, decode
+from coordinator.control.imitation_setup import prepare
 from fluidswarm.recording.reader import load_run
 
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "datasets" / "sign-language-digits"

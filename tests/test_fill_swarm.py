@@ -3,7 +3,7 @@
 The shape is an annulus, so the command carries an outer ring and a hole: agents start partly outside the
 vessel (in the hole and beyond the outer edge) and pull themselves in by the fill law, each deciding from its
 own position only. The compiled agents (agent/native/src/fill.rs, route.rs) must land where the Python
-oracle (agent/route.py FillFollower through followers_for) puts them, to rounding.
+oracle (coordinator/control/route.py FillFollower through followers_for) puts them, to rounding.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from agent import keys
+from agent.protocol import keys
 from agent.fill import inside
 from agent.launcher import Launcher, run_swarm
-from agent.route import followers_for
+from coordinator.control.route import followers_for
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
-from coordinator.imitation_setup import prepare_observation
+from coordinator.control.imitation_setup import prepare_observation
 
 N_AGENTS = 16
 STEPS = 150

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from fluidswarm.geometry import ImageToDomain
-from fluidswarm.recording.fidelity import Fidelity, fidelity, format_fidelity, nn_cv
+from coordinator.control.geometry import ImageToDomain
+from coordinator.control.fidelity import Fidelity, fidelity, format_fidelity, nn_cv
 from fluidswarm.recording.skeleton import skeletonize
 from fluidswarm.recording.synthetic import silhouette, spread_over
 

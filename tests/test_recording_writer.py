@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from fluidswarm.geometry import ImageToDomain
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.synthetic import write_synthetic_run
 from fluidswarm.recording.writer import RunWriter

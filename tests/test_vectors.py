@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from agent.fill import inside, nearest_point
-from agent.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
+from coordinator.control.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
 from agent.sph.particle import NFIELDS, Control
-from agent.wire import decode_state, encode_state
-from coordinator.command import CommandRejected, Fill, Waypoint, decode, edges_cross
+from agent.protocol.wire import decode_state, encode_state
+from agent.protocol.command import CommandRejected, Fill, Waypoint, decode, edges_cross
 
 VECTORS = Path(__file__).resolve().parent / "vectors"
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from fluidswarm.recording.fidelity import format_fidelity
+from coordinator.control.fidelity import format_fidelity
 from fluidswarm.recording.reader import completeness, load_run
 
 

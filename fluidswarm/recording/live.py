@@ -20,7 +20,7 @@ import socket
 import threading
 from dataclasses import dataclass
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.recording import schemas as sc
 
 DEFAULT_ADDRESS = "127.0.0.1:8765"  # the Foxglove app's default WebSocket connection

@@ -22,8 +22,8 @@ import numpy as np
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
-from fluidswarm.errors import UserError
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.errors import UserError
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.writer import JSON_KEYS
 

@@ -25,11 +25,11 @@ import time
 import numpy as np
 import zenoh
 
-from agent import keys
-from agent.session import client_config
+from agent.protocol import keys
+from agent.protocol.session import client_config
 from agent.sph.particle import P, RHO, VX, VY, X, Y
-from agent.wire import decode_state
-from fluidswarm.recording.fidelity import fidelity
+from agent.protocol.wire import decode_state
+from coordinator.control.fidelity import fidelity
 from fluidswarm.recording.writer import RunWriter
 
 RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, stop)
     live = None
     if args.live:
-        from fluidswarm.errors import UserError
+        from agent.protocol.errors import UserError
         from fluidswarm.recording.live import LiveServer, parse_address
 
         try:
@@ -252,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     writer = RunWriter(args.out, metadata, live=live)
     target = None
     if args.target:
-        from fluidswarm.geometry import ImageToDomain
+        from coordinator.control.geometry import ImageToDomain
 
         with np.load(args.target) as t:
             target = (t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))

@@ -10,9 +10,9 @@ from typing import TextIO
 
 import numpy as np
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.recording.analysis import Series, series
-from fluidswarm.recording.fidelity import Fidelity, fidelity
+from coordinator.control.fidelity import Fidelity, fidelity
 from fluidswarm.recording.progress import Progress
 from fluidswarm.recording.reader import Run, load_run
 from fluidswarm.recording.render import GIF_SIZE, SNAPSHOT_SIZE, FormationRenderer, plot_series, save_gif, save_png

@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from fluidswarm.geometry import ImageToDomain
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.writer import RunWriter
 
 DOMAIN = (0.0, 2.0, 0.0, 2.0)

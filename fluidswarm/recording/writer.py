@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 from mcap.writer import CompressionType, IndexType, Writer
 
-from fluidswarm.geometry import ImageToDomain
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
 
 JSON_KEYS = "fluidswarm.json_keys"  # metadata entry listing the keys whose values are JSON text

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from fluidswarm.errors import UserError
+from agent.protocol.errors import UserError
 from fluidswarm.reproduce import classifier, decentralised, equations, gestures, report, stiffness, timings, viscosity
 from fluidswarm.reproduce.claim import Context
 

@@ -10,7 +10,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import pdist
 
-from agent.route import followers_for
+from coordinator.control.route import followers_for
 from agent.sph.params import SPHParams
 from agent.sph.particle import P, RHO, VX, VY, Control, initial_state
 from agent.sph.reference import VectorisedDriver
@@ -106,8 +106,8 @@ def pressure_switch(ctx: Context, g: Group) -> None:
 
 def imitation(path: Path, n: int, controller: str, frame: int | None = None, beta_arm: float | None = None):
     """(setup, followers) of an imitation of `path` on the reference driver."""
-    from coordinator.imitation_setup import prepare_input
-    from coordinator.region import body_region_command
+    from coordinator.control.imitation_setup import prepare_input
+    from coordinator.control.region import body_region_command
 
     im = prepare_input(str(path), n, controller=controller, frame=frame)
     command = im.command
@@ -215,7 +215,7 @@ def measure(ctx: Context) -> list[Group]:
         "reflecting walls of a 9 × 9 m box; β switches from 2 to 20 for every particle at once. Imitations run the project's "
         "controllers on the shipped photographs (`scenarios/inputs/`: digit 2 = scissor, digit 0 = "
         "cylindrical/hook, digit 9 = pinching; Weizmann wave2 frame 15 = arms sideways) on the vectorised "
-        "reference driver, with the SPH settings of `coordinator/imitation_setup.py` (dt 0.02 s, drag 1.5 1/s).")
+        "reference driver, with the SPH settings of `coordinator/control/imitation_setup.py` (dt 0.02 s, drag 1.5 1/s).")
     pressure_switch(ctx, g)
     body_speeds(ctx, g)
     gesture_distances(ctx, g)

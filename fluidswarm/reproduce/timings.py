@@ -43,8 +43,8 @@ def measure(ctx: Context) -> list[Group]:
             "different machine, controller (fill, ends when settled) and decentralised agents over Zenoh versus a "
             "2012 centralised simulation; ours is faster on 2 cores", "latest bench (agent processes)"))
     # Reading: the step size is the time step, so a run to the same simulated time costs 1/dt.
-    from agent.route import followers_for
-    from coordinator.imitation_setup import prepare_input
+    from coordinator.control.route import followers_for
+    from coordinator.control.imitation_setup import prepare_input
     from fluidswarm.reproduce.gestures import INPUTS
 
     n_p, sim_seconds = (40, 4.0) if ctx.quick else (100, 12.0)

@@ -5,12 +5,12 @@ The files next to this script are committed; tests/test_vectors.py checks the Py
 and agent/native/tests/vectors.rs the Rust ones, so both implementations make the same decisions:
 
     state_records.json      wire.decode_state: 88-byte records, valid and rejected (reason)
-    commands.json           coordinator.command.decode: envelopes (raw bytes in hex), accepted (parsed
+    commands.json           agent.protocol.command.decode: envelopes (raw bytes in hex), accepted (parsed
                             fields, the fill shape when there is one) or rejected (reason)
-    command_sequences.json  agent.route.CommandFollower: offers in order with each answer, and controls
-    route.json              agent.route.class_counts/class_of and RouteFollower controls
+    command_sequences.json  coordinator.control.route.CommandFollower: offers in order with each answer, and controls
+    route.json              coordinator.control.route.class_counts/class_of and RouteFollower controls
     fill.json               agent.fill.inside/nearest_point and FillFollower controls, and
-                            coordinator.command.edges_cross
+                            agent.protocol.command.edges_cross
     float_repr.json         Python's repr(float), which the canonical command body uses
 
 Deterministic: a fixed secret, fixed commands and seeded random numbers. Expected floats are written by
@@ -35,10 +35,10 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent))
 
 from agent.fill import inside, nearest_point  # noqa: E402
-from agent.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of  # noqa: E402
+from coordinator.control.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of  # noqa: E402
 from agent.sph.particle import NFIELDS, Control  # noqa: E402
-from agent.wire import decode_state, encode_state  # noqa: E402
-from coordinator.command import (  # noqa: E402
+from agent.protocol.wire import decode_state, encode_state  # noqa: E402
+from agent.protocol.command import (  # noqa: E402
     MAX_BYTES, MAX_RINGS, MAX_VERTICES, CommandRejected, Fill, GestureCommand, ParticleClass, Waypoint, _canonical,
     decode, edges_cross)
 
@@ -360,7 +360,7 @@ def photo_command(n_agents: int = 16):
     """The fill command the coordinator makes for the digit-2 photo."""
     import cv2
 
-    from coordinator.imitation_setup import prepare
+    from coordinator.control.imitation_setup import prepare
 
     return prepare(cv2.imread(str(PHOTO)), n_agents).command
 

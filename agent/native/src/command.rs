@@ -1,5 +1,5 @@
 //! Decoding the gesture command (wire format v1, docs/command.md): a port of `decode` and `parse_body` of
-//! coordinator/command.py, with the same accept/reject decisions and reasons.
+//! agent/protocol/command.py, with the same accept/reject decisions and reasons.
 //!
 //! The envelope is JSON: {"v": 1, "body": {...}, "sig": HMAC-SHA256(secret, canonical body) in hex}, the
 //! canonical body being Python's `json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)`.

@@ -1,4 +1,4 @@
-//! The fill law (agent/fill.py) and the command's crossing check (coordinator/command.py `edges_cross`).
+//! The fill law (agent/fill.py) and the command's crossing check (agent/protocol/command.py `edges_cross`).
 //!
 //! The coordinator broadcasts the observed silhouette as a few rings (polygons, metres, closed implicitly);
 //! each agent decides its body force from its own position only: inside the shape (even-odd rule over all

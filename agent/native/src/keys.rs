@@ -1,4 +1,4 @@
-//! Zenoh key expressions of a run (protocol v1): the same strings as agent/keys.py, documented in
+//! Zenoh key expressions of a run (protocol v1): the same strings as agent/protocol/keys.py, documented in
 //! docs/protocol.md.
 
 pub const PREFIX: &str = "fluidswarm";
@@ -34,7 +34,7 @@ pub fn command_key(run: &str) -> String {
     format!("{PREFIX}/{run}/command")
 }
 
-/// The agent id in the last chunk of a key (agent/keys.py: id_from_key): decimal digits, fewer than 10.
+/// The agent id in the last chunk of a key (agent/protocol/keys.py: id_from_key): decimal digits, fewer than 10.
 pub fn id_from_key(key: &str) -> Option<u32> {
     let last = key.rsplit('/').next()?;
     if !last.is_empty() && last.len() < 10 && last.bytes().all(|b| b.is_ascii_digit()) {

@@ -1,7 +1,7 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
-//! Modules mirror the Python oracle: sph (agent/sph), wire (agent/wire.py), keys (agent/keys.py),
-//! command (coordinator/command.py decoding), fill (agent/fill.py and the command's crossing check),
-//! route (agent/route.py), spec (agent/spec.py).
+//! Modules mirror the Python oracle: sph (agent/sph), wire (agent/protocol/wire.py), keys (agent/protocol/keys.py),
+//! command (agent/protocol/command.py decoding), fill (agent/fill.py and the command's crossing check),
+//! route (coordinator/control/route.py), spec (agent/protocol/spec.py).
 
 pub mod agent;
 pub mod command;

@@ -79,7 +79,7 @@ fn main() {
     let text = match args.as_slice() {
         [flag, text] if flag == "--spec" => text.clone(),
         [flag] if flag.starts_with("--spec=") => flag["--spec=".len()..].to_string(),
-        _ => fail("usage: fluidswarm-agent --spec JSON (the agent's start-up parameters, agent/spec.py)"),
+        _ => fail("usage: fluidswarm-agent --spec JSON (the agent's start-up parameters, agent/protocol/spec.py)"),
     };
     let spec = AgentSpec::from_json(&text).unwrap_or_else(|e| fail(&e));
     let secret_hex = if spec.secret.is_empty() { std::env::var("FLUIDSWARM_SECRET").unwrap_or_default() } else { spec.secret.clone() };

@@ -1,4 +1,4 @@
-//! How an agent follows a gesture command, decided locally from its id: a port of agent/route.py.
+//! How an agent follows a gesture command, decided locally from its id: a port of coordinator/control/route.py.
 //!
 //! The Python module stays the oracle (the reference drivers use it), so the arithmetic here is Python's,
 //! operation for operation: a different rounding could put a particle in another class or make it reach a
@@ -140,7 +140,7 @@ impl FillFollower {
     }
 }
 
-/// What an agent follows (agent/route.py `follower`): the command's shape if it has one, else its class'
+/// What an agent follows (coordinator/control/route.py `follower`): the command's shape if it has one, else its class'
 /// route.
 #[derive(Clone, Debug)]
 pub enum Follower {
@@ -269,7 +269,7 @@ impl CommandFollower {
         self.particle_class
     }
 
-    /// The controller's part of the agent's final report (agent/route.py: CommandFollower.report).
+    /// The controller's part of the agent's final report (coordinator/control/route.py: CommandFollower.report).
     pub fn report(&self) -> Map<String, Value> {
         let mut m = Map::new();
         m.insert("commands_accepted".into(), self.accepted.into());

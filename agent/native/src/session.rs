@@ -1,4 +1,4 @@
-//! Zenoh client configuration of an agent (agent/session.py: client_config, the same settings).
+//! Zenoh client configuration of an agent (agent/protocol/session.py: client_config, the same settings).
 
 use zenoh::Config;
 

@@ -1,5 +1,5 @@
 //! What one agent process is told at start (`--spec JSON`, written by agent/launcher.py from
-//! agent/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
+//! agent/protocol/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
 
 use crate::sph::{Control, Params};
 use serde_json::{Map, Value};

@@ -1,4 +1,4 @@
-//! Binary state record exchanged between agents (wire format v1): a port of agent/wire.py.
+//! Binary state record exchanged between agents (wire format v1): a port of agent/protocol/wire.py.
 //!
 //! Layout, little-endian, 88 bytes (docs/protocol.md):
 //!

@@ -1,7 +1,7 @@
 """PCA controller (thesis ch. 4-5): the recognised class -> that class' parameter template.
 
 The eigen-image classifier (`perception.eigen.default_model`, PCA + LDA) recognises the hand's class; a
-person clip's pose is recognised from the arm regions (`coordinator.observe.body_label`). Each class maps
+person clip's pose is recognised from the arm regions (`coordinator.control.observe.body_label`). Each class maps
 to one of the thesis' preshapes or body poses, a fixed template of particle classes and routes written in
 a normalised frame and placed on the observed hand/body:
 
@@ -19,8 +19,8 @@ import math
 
 import numpy as np
 
-from coordinator.command import GestureCommand, ParticleClass, Waypoint
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
+from coordinator.control.geometry import ImageToDomain
 
 F, A = 50.0, 20.0  # stiffness of fingers and arms after the critical point
 PALM = ("palm", 0.4, [(0.0, 0.0)], 1.1, None)
@@ -70,7 +70,7 @@ BODY_TEMPLATES = {
 
 
 def body_template(label: str) -> str:
-    """The body pose template for a pose label of `coordinator.observe.body_label` ("bending" has a template
+    """The body pose template for a pose label of `coordinator.control.observe.body_label` ("bending" has a template
     but is not recognised yet: the Weizmann torso region is too round to tell it apart)."""
     if label == "bending":
         return "bending"

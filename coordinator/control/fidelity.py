@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
-from fluidswarm.geometry import ImageToDomain
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.skeleton import skeletonize
 
 _MIN_DISC_RADIUS_PX = 4.0  # refine the grid until a disc spans at least this many grid pixels

@@ -105,7 +105,7 @@ class CommandFollower:
     reference drivers."""
 
     def __init__(self, spec):
-        from coordinator.command import decode  # the wire format lives with the coordinator
+        from agent.protocol.command import decode  # the wire format lives with the coordinator
 
         self._decode = decode
         self.secret = bytes.fromhex(spec.secret or os.environ.get("FLUIDSWARM_SECRET", ""))
@@ -121,7 +121,7 @@ class CommandFollower:
         self.first_command_at: float | None = None
 
     def offer(self, payload: bytes) -> str | None:
-        from coordinator.command import CommandRejected
+        from agent.protocol.command import CommandRejected
 
         # The coordinator republishes the current command every 0.2 s, and a captured old command replayed
         # is the same bytes again: both are settled without decoding (a flood must not starve the agent).

@@ -9,10 +9,10 @@ import numpy as np
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
-from coordinator.command import GestureCommand
-from coordinator.fill import AREA_PER_PARTICLE as FILL_AREA, INITIAL_SPACING as FILL_SPACING, fill_command, rest_density
-from coordinator.region import AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.command import GestureCommand
+from coordinator.control.fill import AREA_PER_PARTICLE as FILL_AREA, INITIAL_SPACING as FILL_SPACING, fill_command, rest_density
+from coordinator.control.region import AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command
+from coordinator.control.geometry import ImageToDomain
 from perception.segmentation import hand_mask
 
 DEFAULT_STEPS = 700
@@ -22,7 +22,7 @@ def imitation_params(domain, controller: str = "") -> SPHParams:
     """SPH settings of the imitation runs: the thesis' model plus a little drag so the swarm settles.
 
     dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
-    sets the rest density from the area each particle is given (coordinator/fill.py: rest_density).
+    sets the rest density from the area each particle is given (coordinator/control/fill.py: rest_density).
     """
     params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border="reflect")
     if controller == "fill":
@@ -55,7 +55,7 @@ def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDo
 
 
 def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1) -> GestureCommand:
-    """The chosen controller's command for one observation (coordinator.observe.Observation)."""
+    """The chosen controller's command for one observation (coordinator.control.observe.Observation)."""
     if controller == "fill":
         return fill_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
     if controller == "region":
@@ -63,11 +63,11 @@ def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str 
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
         return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
     if controller == "pca":
-        from coordinator.pca import pca_command
+        from coordinator.control.pca import pca_command
 
         return pca_command(obs, transform, n_agents, seq=seq)
     if controller == "ann":
-        from coordinator.ann import ann_command
+        from coordinator.control.ann import ann_command
 
         return ann_command(obs, transform, n_agents, seq=seq)
     raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
@@ -92,7 +92,7 @@ def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFA
     pos += centre - pos.mean(axis=0)
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
     controls = [Control(beta=command.beta, mu=command.mu) for _ in range(n_agents)]
-    from agent.route import class_of
+    from coordinator.control.route import class_of
 
     shares = [c.share for c in command.classes]
     classes = np.array([class_of(i, n_agents, shares) for i in range(n_agents)])
@@ -102,7 +102,7 @@ def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFA
 
 def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER) -> Imitation:
     """A hand photograph -> its imitation set-up."""
-    from coordinator.observe import Observation, hand_label
+    from coordinator.control.observe import Observation, hand_label
 
     mask = hand_mask(frame_bgr)
     return prepare_observation(Observation("hand", mask, hand_label(mask), frame_bgr), n_agents, seq, controller)
@@ -110,7 +110,7 @@ def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str 
 
 def observations_for(path, frame: int | None = None):
     """(all frames, their observations, the index of the frame to imitate)."""
-    from coordinator.observe import is_clip, observe
+    from coordinator.control.observe import is_clip, observe
     from perception.io import InputError, load_frames
 
     frames = load_frames(path)

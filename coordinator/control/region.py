@@ -15,8 +15,8 @@ import math
 import cv2
 import numpy as np
 
-from coordinator.command import GestureCommand, ParticleClass, Waypoint
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
+from coordinator.control.geometry import ImageToDomain
 
 # m^2 of silhouette per particle: 1.4 gave the best fidelity over 8 shared photos in a sweep of
 # {1.1, 1.4, 1.8, 2.4} (reference solver, 60 particles, 450 steps; min IoU 0.556, mean 0.590).

@@ -6,7 +6,7 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 
-from agent.keys import valid_run_name
+from agent.protocol.keys import valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
 

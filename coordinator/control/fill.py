@@ -26,8 +26,8 @@ import numpy as np
 
 from agent.sph.kernel import gaussian_kernel
 from agent.sph.params import SPHParams
-from coordinator.command import MAX_RINGS, MAX_VERTICES, Fill, GestureCommand, ParticleClass, Waypoint, edges_cross
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.command import MAX_RINGS, MAX_VERTICES, Fill, GestureCommand, ParticleClass, Waypoint, edges_cross
+from coordinator.control.geometry import ImageToDomain
 
 AREA_PER_PARTICLE = 1.7  # m^2 of silhouette per particle
 COMPRESSION = 0.85  # rest density / the density the area calls for

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from agent.sph.particle import VX, VY, X, Y
-from agent.wire import decode_state
-from fluidswarm.recording.fidelity import fidelity
+from agent.protocol.wire import decode_state
+from coordinator.control.fidelity import fidelity
 
 
 @dataclass(frozen=True)

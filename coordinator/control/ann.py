@@ -21,8 +21,8 @@ import math
 
 import numpy as np
 
-from coordinator.command import GestureCommand, ParticleClass, Waypoint
-from fluidswarm.geometry import ImageToDomain
+from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
+from coordinator.control.geometry import ImageToDomain
 
 SPLIT_MIN = 0.25
 ALPHA_PER_FORCE = 2.0
@@ -39,10 +39,10 @@ def ann_force(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> GestureCommand:
-    from coordinator.pca import _hand_frame
+    from coordinator.control.pca import _hand_frame
 
     if obs.kind == "body":  # no finger skeleton: fall back to the PCA template of the pose
-        from coordinator.pca import pca_command
+        from coordinator.control.pca import pca_command
 
         cmd = pca_command(obs, transform, n_agents, seq)
         return GestureCommand(seq=cmd.seq, gesture=cmd.gesture, n_agents=cmd.n_agents, classes=cmd.classes,
