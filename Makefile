@@ -29,9 +29,13 @@ install: $(STAMP) $(AGENT_BIN)
 demo: install
 	$(BIN)/fluidswarm demo
 
+# Unit tests first (no processes, about a minute), then the swarm tests (tests/conftest.py draws the line);
+# both always run: the swarm tests run even when a unit test failed, and `make test` fails if either did.
 test: install
 	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
-	$(BIN)/python -m pytest -q tests
+	$(BIN)/python -m pytest -q -m "not swarm" tests; unit=$$?; \
+	$(BIN)/python -m pytest -q -m swarm tests; swarm=$$?; \
+	test $$unit -eq 0 -a $$swarm -eq 0
 
 bench: install
 	$(BIN)/fluidswarm bench

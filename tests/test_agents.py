@@ -13,6 +13,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 import zenoh
 
 from agent.protocol import keys
@@ -23,6 +24,8 @@ from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
 from agent.protocol.wire import STATE_SIZE, encode_state
 from tests.swarm_helpers import children_of, is_running
+
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 
 def reference(setup, steps):

@@ -6,6 +6,10 @@ import json
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
+
 
 def test_bench_quick_writes_every_field(tmp_path):
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "bench", "--quick", "--ns", "4,9", "--steps", "15",

@@ -8,6 +8,8 @@ import subprocess
 import sys
 import threading
 import time
+
+import pytest
 from pathlib import Path
 
 import cv2
@@ -38,6 +40,7 @@ def aspect(positions: np.ndarray) -> float:
     return float(w / h)
 
 
+@pytest.mark.swarm
 def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follows(tmp_path):
     clip = write_clip(tmp_path / "wave2.avi", fps=8.0)  # 7.4 s of stream
     res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", str(clip), "--fps", "4", "--agents", "16",
@@ -81,6 +84,7 @@ def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follow
     assert sum(after < 0.5 * before for after, before in followed) >= 2
 
 
+@pytest.mark.swarm
 def test_unreachable_camera_is_one_line_and_exit_1(tmp_path):
     res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", "/dev/video97", "--agents", "4", "--out", str(tmp_path)],
                          capture_output=True, text=True, timeout=60)

@@ -15,6 +15,8 @@ from coordinator.control.route import class_of
 from coordinator.control.imitation_setup import prepare_input
 from fluidswarm.recording.reader import load_run
 
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
+
 REPO = Path(__file__).resolve().parent.parent
 SHARED = REPO.parent / "shared" / "datasets"
 WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"  # = shared weizmann-actions-64/wave2/person0.png

@@ -70,6 +70,7 @@ def test_command_signature_and_validation():
             decode(bad, secret)
 
 
+@pytest.mark.swarm
 def test_security_rogue_commands_change_nothing_and_are_counted():
     """Lockstep run with a signed command; a rogue sends 1000 forged, replayed and malformed commands."""
     im = prepare(cv2.imread(str(V_SIGN)), 16)
@@ -118,6 +119,7 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
     assert np.abs(got[:, [X, Y]] - im.setup.states[:, [X, Y]]).max() > 1.0  # the command moved them
 
 
+@pytest.mark.swarm
 def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_path):
     """The coordinator's commands are parameters only, and a state publisher finds no subscriber in it."""
     with Launcher(commands=True) as la:
@@ -148,6 +150,7 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
     assert matching is False
 
 
+@pytest.mark.swarm
 def test_late_joiner_gets_the_command_within_one_second():
     im = prepare(cv2.imread(str(V_SIGN)), 12)
     with Launcher(commands=True) as la:
@@ -184,6 +187,7 @@ def test_late_joiner_gets_the_command_within_one_second():
     assert 0 <= latency <= 1.0
 
 
+@pytest.mark.swarm
 def test_coordinator_publishes_a_new_command_when_the_gesture_changes():
     """A Weizmann clip through the coordinator process: the recognised pose changes (arms up, sideways, ...),
     so it publishes commands with increasing sequence numbers and different gestures."""

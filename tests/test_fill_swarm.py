@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import threading
 import time
+
+import pytest
 from types import SimpleNamespace
 
 import numpy as np
@@ -21,6 +23,8 @@ from coordinator.control.route import followers_for
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
 from coordinator.control.imitation_setup import prepare_observation
+
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 N_AGENTS = 16
 STEPS = 150

@@ -20,6 +20,7 @@ FLUIDSWARM = [sys.executable, "-m", "fluidswarm"]
 V_SIGN = Path(__file__).resolve().parents[1] / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
 
 
+@pytest.mark.swarm
 def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_path):
     """An imitation of the V-sign photograph with 16 agents, watched by a client that subscribes to every channel."""
     port = free_port()
@@ -86,6 +87,7 @@ def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_
     assert other["command"][0] == recorded_command
 
 
+@pytest.mark.swarm
 def test_live_port_in_use_is_one_line_and_exit_1(tmp_path):
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))

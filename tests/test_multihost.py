@@ -11,6 +11,8 @@ import pytest
 from fluidswarm.recording.reader import load_run
 from tests.netns import Hosts, NetnsUnavailable
 
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
+
 FS = [sys.executable, "-m", "fluidswarm"]
 PORT = 7447
 

@@ -42,6 +42,7 @@ def test_segmentation_plausible_for_98_percent_of_the_shared_hands():
     assert rate >= 0.98
 
 
+@pytest.mark.swarm
 def test_eval_classifier_best_pipeline_beats_the_thesis_baseline():
     need_shared()
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "eval-classifier", "--classes", "0,1,2,4,5", "--method", "best"],
@@ -54,6 +55,7 @@ def test_eval_classifier_best_pipeline_beats_the_thesis_baseline():
     assert acc >= 0.95 and acc > base
 
 
+@pytest.mark.swarm
 def test_bad_inputs_give_one_line_errors(tmp_path):
     with pytest.raises(InputError, match="no such file"):
         load_image(tmp_path / "missing.jpg")

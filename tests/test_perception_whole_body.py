@@ -108,6 +108,7 @@ def test_moving_camera_and_empty_scene_have_no_person():
         person_regions(_ball_on_the_wall(frame))
 
 
+@pytest.mark.swarm
 def test_perceive_a_clip_without_a_person_is_one_line_exit_1(tmp_path):
     need_weizmann()
     frame = load_frames(WEIZMANN / "wave2" / "person0.png")[0]

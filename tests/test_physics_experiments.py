@@ -4,6 +4,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from agent.sph.particle import X, Y
 from agent.sph.reference import VectorisedDriver
@@ -48,6 +49,7 @@ def test_beta_50_spreads_the_flow_in_y_more_than_beta_2():
     assert spread[0] > 1.3 * spread[1]
 
 
+@pytest.mark.swarm
 def test_simulate_command_writes_png(tmp_path):
     out = tmp_path / "sim.png"
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "simulate", "--out", str(out), "--steps", "200"],

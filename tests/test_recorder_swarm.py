@@ -10,10 +10,13 @@ import threading
 import time
 
 from mcap.reader import make_reader
+import pytest
 
 from agent.launcher import Launcher, run_swarm
 from agent.sph.setups import spread_block
 from fluidswarm.recording.reader import check, load_run
+
+pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 FOXGLOVE = {"foxglove.PointCloud", "foxglove.Log"}
 

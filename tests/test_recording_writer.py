@@ -215,6 +215,7 @@ _RECORDER = textwrap.dedent("""
     (signal.SIGTERM, "exit", 0),  # no close() at all
     (signal.SIGINT, "default", -signal.SIGINT),  # uncaught KeyboardInterrupt, no close()
 ])
+@pytest.mark.swarm
 def test_recorder_process_stopped_by_signal_leaves_a_finished_file(tmp_path, sig, handler, rc):
     path = tmp_path / "sig.mcap"
     proc = subprocess.Popen([sys.executable, "-c", _RECORDER, str(path), handler], stdout=subprocess.PIPE,

@@ -5,12 +5,14 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
 from fluidswarm.reproduce.allpairs import AllPairsDriver
 
 
+@pytest.mark.swarm
 def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
@@ -32,6 +34,7 @@ def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):
     assert int(counts["agree"]) + int(counts["disagree"]) + int(counts["not_comparable"]) == len(rows)
 
 
+@pytest.mark.swarm
 def test_bad_out_is_one_line_error(tmp_path):
     f = tmp_path / "file.txt"
     f.write_text("x")

@@ -61,6 +61,7 @@ def test_every_scenario_file_loads_and_ships_its_input():
     ('name = "x"\nexperiment = "branching"\nasync_rate = 0\n', "key 'async_rate': must be > 0"),
     ('name = [1\n', "not valid TOML"),
 ])
+@pytest.mark.swarm
 def test_bad_scenario_file_is_one_line_naming_file_and_key(tmp_path, body, problem):
     f = tmp_path / "bad.toml"
     f.write_text(body)
@@ -78,6 +79,7 @@ def test_bad_scenario_file_is_one_line_naming_file_and_key(tmp_path, body, probl
     (["--drop", "3:1.5"], "--drop 3:1.5"),
     (["--agents", "0"], "--agents"),
 ])
+@pytest.mark.swarm
 def test_bad_run_option_is_one_line(tmp_path, opts, problem):
     r = run_cli(["run", str(REPO / "scenarios" / "viscosity_drag.toml"), "--out", str(tmp_path / "o"), *opts], timeout=60)
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
@@ -105,6 +107,7 @@ SMALL = [p for p in SCENARIOS if load_scenario(p).agents <= CI_MAX_AGENTS]
 
 
 @pytest.mark.parametrize("path", SMALL, ids=[p.stem for p in SMALL])
+@pytest.mark.swarm
 def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
     sc = load_scenario(path)
     r = run_cli(["run", str(path), "--out", str(tmp_path / sc.name)])
@@ -132,6 +135,7 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
         assert check(f), f"{sc.name}: robustness figures not met:\n{r.stdout}"
 
 
+@pytest.mark.swarm
 def test_run_options_inject_failures_in_async_mode(tmp_path):
     """Failures given as `run` options on asynchronous agents: SIGKILL and late joiners; the MCAP stays
     complete (a late joiner is expected from its first state on)."""
