@@ -33,36 +33,22 @@ def _dataset(name: str) -> Path:
     return path
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def weizmann() -> Path:
     """The Weizmann action clips (one PNG strip a person and action: wave2/person0.png, ...)."""
     return _dataset("weizmann-actions-64")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def shared_hands() -> Path:
     """The Sign Language Digits hand set (one folder a class, 0..9)."""
     return _dataset("sign-language-digits")
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def shared_image(shared_hands: Path) -> Callable[[int], Path]:
     """The last image of a class of the shared hand set (a fixed, documented pick)."""
     return lambda cls: sorted((shared_hands / str(cls)).iterdir())[-1]
-
-
-def field_names(obj) -> set[str]:
-    """Every key of a JSON value, at any depth (what a command carries, not what it says)."""
-    if isinstance(obj, dict):
-        return set(obj).union(*(field_names(v) for v in obj.values()))
-    if isinstance(obj, list):
-        return set().union(*(field_names(v) for v in obj))
-    return set()
-
-
-# Field names that would mean a command addresses particles one by one (the coordinator sends parameters only).
-PER_PARTICLE = {"id", "ids", "agent", "agents", "agent_id", "particle", "particles", "position", "positions",
-                "velocity", "velocities", "assignment", "assignments", "state", "states"}
 
 
 @pytest.fixture(autouse=True)

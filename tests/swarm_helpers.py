@@ -1,4 +1,4 @@
-"""Helpers shared by the swarm tests: process inspection."""
+"""Helpers shared by the tests: process inspection, the field names a command carries."""
 
 from __future__ import annotations
 
@@ -24,3 +24,17 @@ def is_running(pid: int) -> bool:
             return f.read().rsplit(")", 1)[1].split()[0] != "Z"
     except (FileNotFoundError, ProcessLookupError):
         return False
+
+
+# Field names that would mean a command addresses particles one by one (the coordinator sends parameters only).
+PER_PARTICLE = {"id", "ids", "agent", "agents", "agent_id", "particle", "particles", "position", "positions",
+                "velocity", "velocities", "assignment", "assignments", "state", "states"}
+
+
+def field_names(obj) -> set[str]:
+    """Every key of a JSON value, at any depth (what a command carries, not what it says)."""
+    if isinstance(obj, dict):
+        return set(obj).union(*(field_names(v) for v in obj.values()))
+    if isinstance(obj, list):
+        return set().union(*(field_names(v) for v in obj))
+    return set()

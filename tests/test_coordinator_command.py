@@ -19,28 +19,12 @@ from agent.sph.particle import NFIELDS, X, Y, Control
 from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode
 from coordinator.control.imitation_setup import prepare_input
 from coordinator.process import commands_for_frames
+from tests.swarm_helpers import PER_PARTICLE, field_names
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED = REPO.parent / "shared" / "datasets" / "sign-language-digits"
 WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"
-PER_PARTICLE = {"id", "ids", "agent", "agents", "agent_id", "particle", "particles", "position", "positions",
-                "velocity", "velocities", "assignment", "assignments", "state", "states"}
 ALLOWED = {"v", "body", "sig", "seq", "gesture", "n_agents", "classes", "beta", "mu", "extra", "name", "share", "route",
            "x", "y", "r", "s", "alpha"}
-
-
-def shared_image(cls: int) -> Path:
-    if not SHARED.is_dir():
-        pytest.fail(f"this test needs ../shared/datasets/sign-language-digits (missing: {SHARED})")
-    return sorted((SHARED / str(cls)).iterdir())[-1]
-
-
-def field_names(obj) -> set:
-    if isinstance(obj, dict):
-        return set(obj).union(*(field_names(v) for v in obj.values()))
-    if isinstance(obj, list):
-        return set().union(*(field_names(v) for v in obj))
-    return set()
 
 
 def sign(body: dict, secret: bytes) -> bytes:
@@ -49,7 +33,7 @@ def sign(body: dict, secret: bytes) -> bytes:
 
 
 @pytest.fixture(scope="module")
-def commands():
+def commands(shared_image):
     out = {}
     for name, path, frame in (("v", shared_image(2), None), ("one", shared_image(1), None),
                               ("wave_side", WAVE2, 14), ("wave_up", WAVE2, 0)):

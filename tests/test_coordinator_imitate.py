@@ -18,16 +18,8 @@ from fluidswarm.recording.reader import load_run
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED = REPO.parent / "shared" / "datasets"
 WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"  # = shared weizmann-actions-64/wave2/person0.png
 WAVE2_SIDEWAYS = 14  # perception/data/weizmann_wave2_labels.json: person0 frames 14, 16 have the arms sideways
-
-
-def shared_image(cls: int) -> Path:
-    folder = SHARED / "sign-language-digits" / str(cls)
-    if not folder.is_dir():
-        pytest.fail(f"this test needs ../shared/datasets/sign-language-digits (missing: {folder})")
-    return sorted(folder.iterdir())[-1]
 
 
 def imitate(path: Path, out: Path, agents: int, steps: int, *extra: str):
@@ -54,7 +46,7 @@ def branches(positions: np.ndarray, split_y: float, gap: float = 1.5) -> tuple[i
     return 1 + int(np.sum(gaps > gap)), float(gaps.max())
 
 
-def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path):
+def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path, shared_image):
     v = shared_image(2)
     _ids, pos2, fig2 = imitate(v, tmp_path / "v", 60, 500)
     im2 = prepare_input(v, 60)

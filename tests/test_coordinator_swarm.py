@@ -26,26 +26,10 @@ from agent.sph.reference import PerParticleDriver
 from agent.protocol.command import CommandRejected, decode
 from coordinator.control.imitation_setup import prepare
 from fluidswarm.recording.reader import load_run
+from tests.swarm_helpers import PER_PARTICLE, field_names
 
-SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "datasets" / "sign-language-digits"
 REPO = Path(__file__).resolve().parent.parent
 V_SIGN = REPO / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
-PER_PARTICLE = {"id", "ids", "agent", "agents", "particle", "particles", "position", "positions", "velocity",
-                "velocities", "assignment", "assignments"}
-
-
-def shared_image(cls: int) -> Path:
-    if not SHARED.is_dir():
-        pytest.fail(f"this test needs ../shared/datasets/sign-language-digits (missing: {SHARED})")
-    return sorted((SHARED / str(cls)).iterdir())[-1]
-
-
-def keys_of(obj) -> set:
-    if isinstance(obj, dict):
-        return set(obj) | set().union(*(keys_of(v) for v in obj.values())) if obj else set()
-    if isinstance(obj, list):
-        return set().union(*(keys_of(v) for v in obj)) if obj else set()
-    return set()
 
 
 def test_class_split_is_deterministic_and_complete():
@@ -60,7 +44,7 @@ def test_command_signature_and_validation():
     payload = im.command.encode(secret)
     assert decode(payload, secret) == im.command
     env = json.loads(payload)
-    assert not (keys_of(env["body"]) - {"extra"}) & PER_PARTICLE
+    assert not (field_names(env["body"]) - {"extra"}) & PER_PARTICLE
     with pytest.raises(CommandRejected) as e:
         decode(payload, os.urandom(32))
     assert e.value.reason == "signature"
@@ -144,7 +128,7 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
     assert len(got) >= 3
     for payload in got:
         body = json.loads(payload)["body"]
-        assert not (keys_of(body) - {"extra"}) & PER_PARTICLE
+        assert not (field_names(body) - {"extra"}) & PER_PARTICLE
         # the default (fill) controller's parameter is the shape itself: a few rings, not one per particle
         assert 1 <= len(body["fill"]["rings"]) <= 32 and len(body["classes"]) == 1
     assert matching is False

@@ -4,47 +4,18 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
-from perception.dataset import SHARED_HANDS, load_folder
+from perception.dataset import load_folder
 from perception.io import InputError, load_frames, load_image
-from perception.segmentation import SegmentationError, hand_mask
-
-
-def need_shared():
-    if not SHARED_HANDS.is_dir():
-        pytest.fail(f"this test needs the shared hand set at {SHARED_HANDS}")
-
-
-def test_segmentation_plausible_for_98_percent_of_the_shared_hands():
-    need_shared()
-    images, labels, names, files = load_folder(SHARED_HANDS)
-    ok = 0
-    for img in images:
-        try:
-            m = hand_mask(img)
-        except SegmentationError:
-            continue
-        h, w = m.shape
-        area = m.mean()
-        border = {"top": m[0].any(), "left": m[:, 0].any(), "right": m[:, -1].any(), "bottom": m[-1].any()}
-        # The wrist leaves the picture at the bottom (or a side); a hand touching the top and the bottom
-        # and both sides is a failed segmentation (background taken as hand).
-        touches = sum(border.values())
-        if 0.05 <= area <= 0.6 and touches <= 2 and not (border["top"] and border["bottom"] and touches > 2):
-            ok += 1
-    rate = ok / len(images)
-    print(f"plausible silhouettes: {ok}/{len(images)} = {rate:.3f}")
-    assert rate >= 0.98
 
 
 @pytest.mark.swarm
-def test_eval_classifier_best_pipeline_beats_the_thesis_baseline():
-    need_shared()
+def test_eval_classifier_best_pipeline_beats_the_thesis_baseline(shared_hands):
+    # the plausibility of the shared hands' silhouettes: tests/test_perception_classifier.py
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "eval-classifier", "--classes", "0,1,2,4,5", "--method", "best"],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr

@@ -13,26 +13,20 @@ from perception.io import load_frames
 from perception.segmentation import NoMotionError, person_regions
 from perception.tracking import track_boxes
 
-WEIZMANN = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "weizmann-actions-64"
 LABELS = Path(__file__).resolve().parents[1] / "perception" / "data" / "weizmann_wave2_labels.json"
 
-
-def need_weizmann():
-    if not (WEIZMANN / "wave2").is_dir():
-        pytest.fail(f"this test needs the shared Weizmann clips at {WEIZMANN} (../shared next to the repository)")
 
 
 def from_horizontal(e) -> float:
     return min(e.orientation_deg, 180 - e.orientation_deg)
 
 
-def test_wave2_arm_ellipses_follow_the_labelled_arm_poses():
-    need_weizmann()
+def test_wave2_arm_ellipses_follow_the_labelled_arm_poses(weizmann):
     labels = json.loads(LABELS.read_text())["frames"]
     angles = {"sideways": [], "up": []}
     found = total = 0
     for person, poses in labels.items():
-        regions = person_regions(load_frames(WEIZMANN / "wave2" / f"{person}.png"))
+        regions = person_regions(load_frames(weizmann / "wave2" / f"{person}.png"))
         for pose, frames in poses.items():
             for i in frames:
                 ells = body_regions(regions[i])
@@ -49,9 +43,8 @@ def test_wave2_arm_ellipses_follow_the_labelled_arm_poses():
     assert up.min() > 35 and up.mean() > 55  # steep when the arms are up
 
 
-def test_body_regions_have_head_above_torso_and_arms_either_side():
-    need_weizmann()
-    regions = person_regions(load_frames(WEIZMANN / "wave2" / "person3.png"))
+def test_body_regions_have_head_above_torso_and_arms_either_side(weizmann):
+    regions = person_regions(load_frames(weizmann / "wave2" / "person3.png"))
     ells = body_regions(regions[30])  # arms sideways (labelled)
     assert ells["head"].y_c < ells["torso"].y_c
     assert ells["left_arm"].x_c < ells["torso"].x_c < ells["right_arm"].x_c
@@ -69,9 +62,8 @@ def test_kalman_tracking_smooths_noisy_boxes_and_bridges_missed_frames():
     assert tracked[30] is not None and np.abs(np.array(tracked[31]) - truth[31]).max() < 4
 
 
-def test_tracking_follows_the_person_in_a_real_clip():
-    need_weizmann()
-    regions = person_regions(load_frames(WEIZMANN / "wave1" / "person2.png"))
+def test_tracking_follows_the_person_in_a_real_clip(weizmann):
+    regions = person_regions(load_frames(weizmann / "wave1" / "person2.png"))
     tracked = track_boxes([r.bbox for r in regions])
     assert all(t is not None for t in tracked[1:])
     centres = np.array([(x + w / 2, y + h / 2) for x, y, w, h in tracked[1:]])

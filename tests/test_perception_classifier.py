@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from perception.dataset import SHARED_HANDS, is_test_file, load_folder
+from perception.dataset import is_test_file, load_folder
 from perception.eigen import MODEL_PATH, EigenClassifier, default_model
 from perception.segmentation import SegmentationError, hand_mask
 
@@ -15,10 +15,8 @@ FOLDS = 5
 
 
 @pytest.fixture(scope="module")
-def hands():
-    if not SHARED_HANDS.is_dir():
-        pytest.fail(f"this test needs the shared hand set at {SHARED_HANDS} (../shared next to the repository)")
-    images, labels, names, files = load_folder(SHARED_HANDS)
+def hands(shared_hands):
+    images, labels, names, files = load_folder(shared_hands)
     return images, labels, names, files
 
 

@@ -18,23 +18,17 @@ from perception.io import load_frames
 from perception.segmentation import NoPersonError, person_regions
 
 REPO = Path(__file__).resolve().parents[1]
-WEIZMANN = REPO.parent / "shared" / "datasets" / "weizmann-actions-64"
 ROWS = REPO / "tests" / "labels" / "weizmann_rows.json"
 TORSO_STRIDE = 6  # every 6th frame of every clip for the torso figure (scripts/body_figures.py: all frames)
 
 
-def need_weizmann():
-    if not (WEIZMANN / "wave2").is_dir():
-        pytest.fail(f"this test needs the shared Weizmann clips at {WEIZMANN} (../shared next to the repository)")
-
 
 @pytest.fixture(scope="module")
-def clips():
+def clips(weizmann):
     """{clip: (labels, {frame: PersonRegions})} for the labelled frames and every TORSO_STRIDE-th frame."""
-    need_weizmann()
     out = {}
     for name, labels in json.loads(ROWS.read_text())["clips"].items():
-        frames = load_frames(WEIZMANN / f"{name}.png")
+        frames = load_frames(weizmann / f"{name}.png")
         wanted = sorted({lab["frame"] for lab in labels} | set(range(0, len(frames), TORSO_STRIDE)))
         out[name] = (labels, dict(zip(wanted, person_regions(frames, only=wanted))))
     return out
@@ -70,11 +64,10 @@ def test_torso_ellipse_is_upright_below_the_head(clips):
     assert np.mean(ok) >= 0.9
 
 
-def test_torso_of_a_standing_person_holds_the_legs(clips):
+def test_torso_of_a_standing_person_holds_the_legs(clips, weizmann):
     # wave2 person3, arms sideways (labelled): the torso region reaches the picture's bottom (the legs), the
     # head sits on it, the arms leave it on either side
-    need_weizmann()
-    r = person_regions(load_frames(WEIZMANN / "wave2" / "person3.png"), only=[30])[0]
+    r = person_regions(load_frames(weizmann / "wave2" / "person3.png"), only=[30])[0]
     e = body_regions(r)
     assert np.flatnonzero(r.torso.any(axis=1))[-1] == 63
     assert abs(e["torso"].orientation_deg - 90) < 10 and e["torso"].l_major > 30
@@ -99,9 +92,8 @@ def _ball_on_the_wall(frame: np.ndarray, frames: int = 40) -> list[np.ndarray]:
     return out
 
 
-def test_moving_camera_and_empty_scene_have_no_person():
-    need_weizmann()
-    frame = load_frames(WEIZMANN / "wave2" / "person0.png")[0]
+def test_moving_camera_and_empty_scene_have_no_person(weizmann):
+    frame = load_frames(weizmann / "wave2" / "person0.png")[0]
     with pytest.raises(NoPersonError, match="no person found: the camera moves"):
         person_regions(_pan(frame))
     with pytest.raises(NoPersonError, match="no person found"):
@@ -109,9 +101,8 @@ def test_moving_camera_and_empty_scene_have_no_person():
 
 
 @pytest.mark.swarm
-def test_perceive_a_clip_without_a_person_is_one_line_exit_1(tmp_path):
-    need_weizmann()
-    frame = load_frames(WEIZMANN / "wave2" / "person0.png")[0]
+def test_perceive_a_clip_without_a_person_is_one_line_exit_1(tmp_path, weizmann):
+    frame = load_frames(weizmann / "wave2" / "person0.png")[0]
     strip = tmp_path / "pan.png"
     cv2.imwrite(str(strip), np.hstack(_pan(frame)))
     proc = subprocess.run([sys.executable, "-m", "fluidswarm", "perceive", str(strip), "--out", str(tmp_path / "p.png")],
