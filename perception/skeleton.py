@@ -36,29 +36,55 @@ U_ANGLE = 22.0  # degrees between the two arms' directions below which the shape
 NAMES = ("line_edge", "u_shape", "v_shape", "two_curves", "one_curve", "branch_distance")
 
 
+# Zhang-Suen thinning (T. Y. Zhang and C. Y. Suen, "A fast parallel algorithm for thinning digital patterns",
+# Commun. ACM 27(3), 1984), vectorised with a neighbourhood code and two lookup tables. For a foreground pixel
+# P1 with neighbours P2..P9 (clockwise from north), B = number of foreground neighbours, A = number of 0->1
+# transitions in the cyclic sequence P2, P3, ..., P9, P2. P1 is removed when 2 <= B <= 6, A == 1 and
+#   sub-iteration 1: P2*P4*P6 == 0 and P4*P6*P8 == 0
+#   sub-iteration 2: P2*P4*P8 == 0 and P2*P6*P8 == 0
+# until neither sub-iteration removes a pixel. opencv-python-headless ships no `cv2.ximgproc.thinning`, and
+# scikit-image is not a dependency. Bit k of the code is neighbour P(k+2); cv2.filter2D correlates, so
+# kernel[dy+1, dx+1] weighs the pixel at (row + dy, col + dx).
+_CODE_KERNEL = np.array(
+    [[128, 1, 2],  # P9 (NW), P2 (N), P3 (NE)
+     [64, 0, 4],  # P8 (W),         P4 (E)
+     [32, 16, 8]],  # P7 (SW), P6 (S), P5 (SE)
+    dtype=np.float32,
+)
+
+
+def _removal_tables() -> tuple[np.ndarray, np.ndarray]:
+    first = np.zeros(256, dtype=bool)
+    second = np.zeros(256, dtype=bool)
+    for code in range(256):
+        p2, p3, p4, p5, p6, p7, p8, p9 = p = [(code >> k) & 1 for k in range(8)]
+        b = sum(p)
+        a = sum(1 for k in range(8) if p[k] == 0 and p[(k + 1) % 8] == 1)
+        if 2 <= b <= 6 and a == 1:
+            first[code] = p2 * p4 * p6 == 0 and p4 * p6 * p8 == 0
+            second[code] = p2 * p4 * p8 == 0 and p2 * p6 * p8 == 0
+    return first, second
+
+
+_REMOVE_FIRST, _REMOVE_SECOND = _removal_tables()
+
+
 def thin(mask: np.ndarray) -> np.ndarray:
-    """Zhang-Suen thinning (1984) of a boolean mask -> one-pixel-wide skeleton (boolean)."""
-    img = np.pad(np.asarray(mask, bool).astype(np.uint8), 1)
+    """One-pixel-wide skeleton of a 2-D boolean mask (Zhang-Suen); a boolean array of the same shape."""
+    mask = np.asarray(mask)
+    if mask.ndim != 2:
+        raise ValueError(f"mask must be 2-D, got shape {mask.shape}")
+    img = (mask > 0).astype(np.float32)
     while True:
         changed = False
-        for step in (0, 1):
-            p = img
-            p2, p3, p4 = p[:-2, 1:-1], p[:-2, 2:], p[1:-1, 2:]
-            p5, p6, p7 = p[2:, 2:], p[2:, 1:-1], p[2:, :-2]
-            p8, p9 = p[1:-1, :-2], p[:-2, :-2]
-            nb = [p2, p3, p4, p5, p6, p7, p8, p9]
-            b = sum(n.astype(np.int32) for n in nb)
-            a = sum(((nb[i] == 0) & (nb[(i + 1) % 8] == 1)).astype(np.int32) for i in range(8))
-            if step == 0:
-                c1, c2 = p2 * p4 * p6, p4 * p6 * p8
-            else:
-                c1, c2 = p2 * p4 * p8, p2 * p6 * p8
-            remove = (p[1:-1, 1:-1] == 1) & (b >= 2) & (b <= 6) & (a == 1) & (c1 == 0) & (c2 == 0)
+        for table in (_REMOVE_FIRST, _REMOVE_SECOND):
+            code = cv2.filter2D(img, cv2.CV_32F, _CODE_KERNEL, borderType=cv2.BORDER_CONSTANT)
+            remove = table[code.astype(np.uint8)] & (img > 0)
             if remove.any():
-                img[1:-1, 1:-1][remove] = 0
+                img[remove] = 0
                 changed = True
         if not changed:
-            return img[1:-1, 1:-1].astype(bool)
+            return img > 0
 
 
 _OFFSETS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]

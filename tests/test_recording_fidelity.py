@@ -9,7 +9,7 @@ import pytest
 
 from coordinator.control.geometry import ImageToDomain
 from coordinator.control.fidelity import Fidelity, fidelity, format_fidelity, nn_cv
-from fluidswarm.recording.skeleton import skeletonize
+from perception.skeleton import thin
 from fluidswarm.recording.synthetic import silhouette, spread_over
 
 MASK = silhouette((100, 100))
@@ -104,7 +104,7 @@ def test_nn_cv_is_zero_on_a_lattice_and_high_for_clumps():
 def test_skeleton_of_a_bar_is_its_centre_line():
     bar = np.zeros((21, 61), bool)
     bar[5:16, 5:56] = True
-    sk = skeletonize(bar)
+    sk = thin(bar)
     rows = np.unique(np.nonzero(sk)[0])
     assert len(rows) <= 2 and 9 <= rows.min() <= rows.max() <= 11
     assert np.count_nonzero(sk) >= 35
@@ -114,7 +114,7 @@ def test_skeleton_of_a_bar_is_its_centre_line():
 def test_skeleton_is_thin_and_keeps_a_ring_connected():
     ring = np.zeros((80, 80), np.uint8)
     cv2.circle(ring, (40, 40), 30, 1, thickness=8)
-    sk = skeletonize(ring.astype(bool)).astype(np.uint8)
+    sk = thin(ring.astype(bool)).astype(np.uint8)
     n_labels, _ = cv2.connectedComponents(sk, connectivity=8)
     assert n_labels == 2  # background + one ring
     # thin: no 2x2 block fully set

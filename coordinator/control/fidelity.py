@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from coordinator.control.geometry import ImageToDomain
-from fluidswarm.recording.skeleton import skeletonize
+from perception.skeleton import thin
 
 _MIN_DISC_RADIUS_PX = 4.0  # refine the grid until a disc spans at least this many grid pixels
 _MIN_MASK_SIDE_PX = 64  # ... and the mask's shorter side at least this many
@@ -99,7 +99,7 @@ def _skeleton_points(mask: np.ndarray) -> np.ndarray:
         crop = cv2.resize(padded, (w, h), interpolation=cv2.INTER_AREA) >= 0.5
         if not crop.any():  # a thin shape vanished when shrunk: thin it at full size
             k, crop = 1, mask[r0 : rows.max() + 1, c0 : cols.max() + 1]
-    sv, su = np.nonzero(skeletonize(crop))
+    sv, su = np.nonzero(thin(crop))
     return np.stack([c0 + (su + 0.5) * k, r0 + (sv + 0.5) * k], axis=1)
 
 

@@ -1,8 +1,7 @@
-"""Recording and analysis of runs: the MCAP writer and reader, the imitation-fidelity score, `replay`.
+"""Recording and analysis of runs: the MCAP writer and reader, `replay` (the imitation-fidelity score it
+reports is coordinator/control/fidelity.py, the Zhang-Suen thinning behind it perception/skeleton.py).
 
 Modules, one job each:
-- `fidelity`  — the imitation-fidelity score (IoU, inside, coverage) of a formation against a silhouette.
-- `skeleton`  — Zhang-Suen thinning, used by the coverage term of the score.
 - `schemas`   — the Foxglove well-known JSON schemas and the packed per-particle layout.
 - `writer`    — `RunWriter`, the one thin MCAP writer the recorder process calls.
 - `live`      — `LiveServer`, the Foxglove WebSocket server that shows a run as it happens (`--live`).
