@@ -7,7 +7,7 @@ import time
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import branching
 from agent.protocol.errors import UserError
-from fluidswarm.plotting import plot_formation
+from fluidswarm.recording.render import plot_formation
 
 
 def register(sub) -> None:

@@ -1,6 +1,8 @@
-"""Pictures of a run: formation frames (target silhouette, particles by class, waypoints, ellipses) and
-the analysis plots. Matplotlib's object API with the Agg canvas (no pyplot state); images are saved with
-Pillow (PNG, animated GIF)."""
+"""Pictures of a formation and of a run: `plot_formation` (one formation over its target, the PNG of
+`imitate` and `simulate`), the frames of a recorded run (target silhouette, particles by class, waypoints,
+ellipses) and the analysis plots. One class colour table (schemas.CLASS_COLOURS, also in the MCAP file and
+Foxglove). Matplotlib's object API with the Agg canvas (no pyplot state); images are saved with Pillow
+(PNG, animated GIF)."""
 
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.analysis import Series
 from fluidswarm.recording.reader import Frame, Run, Scene, Target
 
-SNAPSHOT_SIZE = (640, 640)  # width, height in pixels
+FORMATION_SIZE = (700, 500)  # width, height in pixels
+SNAPSHOT_SIZE = (640, 640)
 GIF_SIZE = (480, 480)
 PLOT_SIZE = (800, 500)
 _DPI = 100
@@ -45,6 +48,46 @@ def _figure(size: tuple[int, int]) -> tuple[Figure, FigureCanvasAgg]:
     return fig, FigureCanvasAgg(fig)
 
 
+def _domain_axes(ax) -> None:
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
+def class_colours(class_ids) -> np.ndarray:
+    """(N, 3) RGB in 0..1 of each class id, for matplotlib."""
+    return sc.class_colour(class_ids) / 255.0
+
+
+def plot_formation(path: str | Path, positions: np.ndarray, classes: np.ndarray, class_names=None, title: str = "",
+                   background: np.ndarray | None = None, extent=None, waypoints: np.ndarray | None = None,
+                   outline=()) -> Path:
+    """Write a PNG of particles coloured by class, optionally over a background image (extent in metres),
+    with the command's waypoints or the fill controller's shape (`outline`: rings of (x, y))."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, canvas = _figure(FORMATION_SIZE)
+    ax = fig.add_subplot(1, 1, 1)
+    if background is not None:
+        ax.imshow(background, extent=extent, cmap="Greys", alpha=0.35, origin="upper")
+    classes = np.asarray(classes)
+    for k in np.unique(classes):
+        sel = classes == k
+        label = class_names[k] if class_names is not None and k < len(class_names) else f"class {k}"
+        ax.scatter(positions[sel, 0], positions[sel, 1], s=14, color=class_colours([k])[0], label=label)
+    for k, ring in enumerate(outline):
+        closed = np.array(list(ring) + [ring[0]])
+        ax.plot(closed[:, 0], closed[:, 1], color="black", lw=0.6, alpha=0.6, label="fill shape" if k == 0 else None)
+    if waypoints is not None and len(waypoints):
+        ax.scatter(waypoints[:, 0], waypoints[:, 1], marker="x", color="black", s=30, label="waypoints")
+    _domain_axes(ax)
+    ax.set_title(title)
+    ax.legend(loc="best", fontsize=7)
+    fig.tight_layout()
+    canvas.print_png(str(path))
+    return path
+
+
 class FormationRenderer:
     """Draws frames of one run on one reused figure of `size` pixels; `render` returns an RGB array."""
 
@@ -54,9 +97,7 @@ class FormationRenderer:
         xmin, xmax, ymin, ymax = domain_extent(run)
         self.ax.set_xlim(xmin, xmax)
         self.ax.set_ylim(ymin, ymax)
-        self.ax.set_aspect("equal")
-        self.ax.set_xlabel("x [m]")
-        self.ax.set_ylabel("y [m]")
+        _domain_axes(self.ax)
         self._target_img = None
         self._target: Target | None = None
         self._run = run
@@ -96,7 +137,7 @@ class FormationRenderer:
         self._set_target(shown[-1] if shown else None)
         self._set_scene(self._run.scene_at(frame.t))
         self._scatter.set_offsets(frame.positions if len(frame.positions) else np.empty((0, 2)))
-        self._scatter.set_facecolors(sc.class_colour(frame.class_ids) / 255.0 if len(frame.class_ids) else [])
+        self._scatter.set_facecolors(class_colours(frame.class_ids) if len(frame.class_ids) else [])
         self._scatter.set_edgecolors("none")
         self._title.set_text(f"{self._run.name}  step {frame.step}  t = {frame.t:.2f} s  N = {len(frame.ids)}")
         self.canvas.draw()
@@ -134,7 +175,7 @@ def _plot(path: Path, title: str, ylabel: str, lines: list[tuple[np.ndarray, np.
 
 def plot_series(s: Series, out: Path) -> dict[str, Path]:
     """The three analysis plots; returns {"speed": path, "pressure": path, "distance": path}."""
-    speed_lines = [(s.t, v, f"class {c}", sc.class_colour([c])[0] / 255.0) for c, v in s.speed_by_class.items()]
+    speed_lines = [(s.t, v, f"class {c}", class_colours([c])[0]) for c, v in s.speed_by_class.items()]
     return {
         "speed": _plot(out / "speed_by_class.png", "Average speed per class", "mean |v| [m/s]", speed_lines),
         "pressure": _plot(out / "pressure.png", "Average pressure", "mean p", [(s.t, s.pressure, "pressure", "tab:purple")]),

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from fluidswarm.plotting import class_colour  # noqa: E402
+from fluidswarm.recording.render import class_colours  # noqa: E402
 
 
 def save(fig, path: Path) -> Path:
@@ -27,9 +27,9 @@ def time_series(path: Path, panels: list[tuple[str, float, dict[str, np.ndarray]
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.6), squeeze=False)
     for ax, (title, dt, curves, levels) in zip(axes[0], panels):
         for k, (label, y) in enumerate(curves.items()):
-            ax.plot(np.arange(len(y)) * dt, y, color=class_colour(k), label=label, lw=1.3)
+            ax.plot(np.arange(len(y)) * dt, y, color=class_colours([k])[0], label=label, lw=1.3)
         for k, (label, level) in enumerate(levels.items()):
-            ax.axhline(level, color=class_colour(k), ls="--", lw=0.9, label=label)
+            ax.axhline(level, color=class_colours([k])[0], ls="--", lw=0.9, label=label)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("t [s]")
         ax.set_ylabel(ylabel)
@@ -47,7 +47,7 @@ def formations(path: Path, panels: list[tuple[str, np.ndarray, np.ndarray, tuple
     for ax, (title, pos, classes, names) in zip(axes.flat, panels):
         for k in np.unique(classes):
             sel = classes == k
-            ax.scatter(pos[sel, 0], pos[sel, 1], s=5, color=class_colour(k),
+            ax.scatter(pos[sel, 0], pos[sel, 1], s=5, color=class_colours([k])[0],
                        label=names[k] if k < len(names) else str(k))
         ax.set_aspect("equal")
         ax.set_title(title, fontsize=8)
@@ -65,7 +65,7 @@ def bars(path: Path, title: str, groups: dict[str, dict[str, float]], ylabel: st
     x = np.arange(len(labels))
     for k, s in enumerate(series):
         vals = [groups[g].get(s, np.nan) for g in labels]
-        ax.bar(x + (k - (len(series) - 1) / 2) * width, vals, width, color=class_colour(k), label=s)
+        ax.bar(x + (k - (len(series) - 1) / 2) * width, vals, width, color=class_colours([k])[0], label=s)
     ax.set_xticks(x)
     ax.set_xticklabels(labels, fontsize=7, rotation=15)
     ax.set_ylabel(ylabel)
@@ -79,9 +79,9 @@ def lines(path: Path, title: str, x, curves: dict[str, np.ndarray], xlabel: str,
     """Curves over a shared x; `markers` {label: (xs, ys)} drawn as points (e.g. the thesis' table)."""
     fig, ax = plt.subplots(figsize=(5.6, 3.6))
     for k, (label, y) in enumerate(curves.items()):
-        ax.plot(x, y, "o-", color=class_colour(k), label=label, lw=1.2, ms=3)
+        ax.plot(x, y, "o-", color=class_colours([k])[0], label=label, lw=1.2, ms=3)
     for k, (label, (xs, ys)) in enumerate((markers or {}).items()):
-        ax.plot(xs, ys, "s--", color="black" if k == 0 else class_colour(k + 5), label=label, lw=0.9, ms=4)
+        ax.plot(xs, ys, "s--", color="black" if k == 0 else class_colours([k + 5])[0], label=label, lw=0.9, ms=4)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=9)

@@ -1,0 +1,129 @@
+"""The import graph of the project's own packages: imports only go down the layers, and no module cycle.
+
+Every import is read with `ast`, at module level and inside functions alike (a function-level import is
+still a dependency; hiding it does not remove it). The picture behind LAYERS: docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("agent", "coordinator", "perception", "fluidswarm")
+
+# Lowest first. A module belongs to the layer of its longest matching name prefix (a package or a module);
+# a module may import from its own layer and the layers below.
+LAYERS: list[tuple[str, tuple[str, ...]]] = [
+    ("physics", ("agent.sph", "agent.fill")),
+    ("protocol", ("agent.protocol",)),
+    ("perception", ("perception",)),
+    ("control", ("coordinator.control",)),
+    ("processes", ("agent", "coordinator", "fluidswarm.router", "fluidswarm.failures", "fluidswarm.recording")),
+    ("orchestration", ("fluidswarm.run", "fluidswarm.imitate", "fluidswarm.imitate_camera",
+                       "coordinator.imitate", "coordinator.imitate_camera", "coordinator.scenario_run")),
+    # the command line: every package's subcommand registration (`commands`) and what only it uses
+    ("application", ("fluidswarm", "agent.commands", "coordinator.commands", "perception.commands",
+                     "fluidswarm.recording.commands", "fluidswarm.recording.replay")),
+]
+
+
+def layer_of(module: str) -> int:
+    best, level = -1, None
+    for rank, (_, prefixes) in enumerate(LAYERS):
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best:
+                best, level = len(p), rank
+    assert level is not None, f"{module}: no layer in tests/test_layers.py LAYERS (and docs/architecture.md)"
+    return level
+
+
+def modules() -> dict[str, Path]:
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((REPO / package).rglob("*.py")):
+            if "native" in path.relative_to(REPO).parts:
+                continue
+            name = ".".join(path.relative_to(REPO).with_suffix("").parts)
+            found[name.removesuffix(".__init__")] = path
+    return found
+
+
+def imports(name: str, path: Path, known: dict[str, Path]) -> list[tuple[str, int]]:
+    """(imported project module, line) for every import statement of the module, at any depth."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(parts + ([base] if base else []))
+            # `from pkg import mod` depends on pkg.mod; `from mod import name` on mod
+            targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names]
+        else:
+            continue
+        for t in targets:
+            while t and t not in known:  # `import a.b.c` of a function: the module that holds it
+                t = t.rpartition(".")[0]
+            if t and t != name:
+                out.append((t, node.lineno))
+    return out
+
+
+def graph() -> tuple[dict[str, Path], dict[str, list[tuple[str, int]]]]:
+    known = modules()
+    return known, {name: imports(name, path, known) for name, path in known.items()}
+
+
+def test_every_module_has_a_layer():
+    known, _ = graph()
+    assert len(known) > 50  # the walk found the packages
+    for name in known:
+        layer_of(name)
+
+
+def test_imports_only_go_down_the_layers():
+    known, edges = graph()
+    upward = []
+    for name, targets in edges.items():
+        for target, line in targets:
+            if layer_of(target) > layer_of(name):
+                upward.append(f"{known[name].relative_to(REPO)}:{line}: {name} ({LAYERS[layer_of(name)][0]}) "
+                              f"imports {target} ({LAYERS[layer_of(target)][0]})")
+    assert not upward, "imports up the layers:\n" + "\n".join(sorted(set(upward)))
+
+
+def test_no_import_cycle():
+    _, edges = graph()
+    state: dict[str, int] = {}  # 1 on the current path, 2 done
+    cycles: list[str] = []
+
+    def visit(name: str, path: list[str]) -> None:
+        state[name] = 1
+        for target, _ in edges[name]:
+            if state.get(target) == 1:
+                cycles.append(" -> ".join(path[path.index(target):] + [target]))
+            elif target not in state:
+                visit(target, path + [target])
+        state[name] = 2
+
+    for name in sorted(edges):
+        if name not in state:
+            visit(name, [name])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
+
+
+def test_the_checker_sees_function_level_and_relative_imports(tmp_path):
+    """The graph must not miss an import hidden in a function (the agent ↔ coordinator cycle hid there)."""
+    pkg = tmp_path / "agent"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("def f():\n    from coordinator.control import route\n    from . import b\n")
+    (pkg / "b.py").write_text("")
+    known = {"agent": pkg / "__init__.py", "agent.a": pkg / "a.py", "agent.b": pkg / "b.py",
+             "coordinator.control.route": Path("route.py"), "coordinator.control": Path("__init__.py")}
+    assert imports("agent.a", pkg / "a.py", known) == [("coordinator.control.route", 2), ("agent.b", 3)]
+    assert layer_of("coordinator.control.route") > layer_of("agent.protocol.wire") > layer_of("agent.sph.kernel")
