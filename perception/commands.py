@@ -100,25 +100,14 @@ def _eval(args) -> int:
     return 0
 
 
-def _is_clip(path: Path) -> bool:
-    from perception.io import VIDEO_SUFFIXES, _header_size
-
-    if path.is_dir() or path.suffix.lower() in VIDEO_SUFFIXES:
-        return True
-    try:
-        size = _header_size(path) if path.is_file() else None
-    except OSError:
-        return False
-    return bool(size and size[1] == 64 and size[0] % 64 == 0 and size[0] >= 128)
-
-
 def _perceive(args) -> int:
-    from perception.io import InputError
+    from perception.io import InputError, is_clip, load_frames
     from perception.segmentation import SegmentationError
 
     path = Path(args.input)
     try:
-        if _is_clip(path):
+        # `perceive` looks at a person in a folder of frames too (imitate reads a folder as hand photographs)
+        if path.is_dir() or is_clip(path, load_frames(path)):
             from perception.perceive import perceive_clip
 
             lines, picture = perceive_clip(path)

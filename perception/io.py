@@ -17,6 +17,7 @@ MAX_FRAMES = 10_000
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff"}
 VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".webm", ".mpg", ".mpeg"}
 STRIP_SIDE = 64  # Weizmann strips: 64 x 64 frames side by side
+MIN_CLIP_FRAMES = 3  # a person is found in a clip by what moves between frames: fewer hold too little motion
 
 
 class InputError(ValueError):
@@ -132,3 +133,13 @@ def load_frames(path: str | Path) -> list[np.ndarray]:
         return load_video(path)
     img = load_image(path)
     return split_strip(img) or [img]
+
+
+def is_clip(path: str | Path, frames: list[np.ndarray]) -> bool:
+    """A person in a static-camera clip: a video file, or a Weizmann strip (STRIP_SIDE-pixel square frames
+    side by side), of at least MIN_CLIP_FRAMES frames. A folder is a sequence of hand photographs and a
+    single picture one photograph (`frames`: what load_frames read from `path`)."""
+    path = Path(path)
+    if path.is_dir() or len(frames) < MIN_CLIP_FRAMES:
+        return False
+    return path.suffix.lower() in VIDEO_SUFFIXES or frames[0].shape[:2] == (STRIP_SIDE, STRIP_SIDE)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.io import VIDEO_SUFFIXES
+from perception.io import is_clip
 
 
 @dataclass
@@ -27,11 +27,6 @@ class Observation:
     parts: dict = field(default_factory=dict)  # body: {"torso", "left_arm", "right_arm"} bool masks (or absent)
     index: int = 0
 
-
-def is_clip(path: str | Path, frames: list) -> bool:
-    """A video or a Weizmann strip (a person in a static-camera clip), not a folder of hand photographs."""
-    path = Path(path)
-    return not path.is_dir() and len(frames) >= 3 and (path.suffix.lower() in VIDEO_SUFFIXES or frames[0].shape[:2] == (64, 64))
 
 
 SIDE_MAX_DEG = 35.0  # an arm ellipse within this of horizontal is held sideways (labelled wave2: <= 31)
