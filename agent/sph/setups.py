@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from agent.sph.params import SPHParams
-from agent.sph.particle import Control, initial_state
+from agent.sph.particle import X, Y, Control, initial_state
 
 
 @dataclass
@@ -54,6 +54,18 @@ def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float = 2.0, r
     controls = [Control(beta=beta_middle if m else beta_edge, push_x=push) for m in middle]
     classes = np.where(middle, 1, np.where(row < lo, 0, 2))
     return Setup(np.arange(n), states, controls, classes, ("lower edge", "middle", "upper edge"), params)
+
+
+def branch_gap(classes: np.ndarray, states: np.ndarray) -> float:
+    """Distance in y between the upper and lower edge bands (median heights, classes 2 and 0) in the
+    central 40 % of the flow's length: how far the two branches have moved apart."""
+    x = states[:, X]
+    lo, hi = np.percentile(x, [30, 70])
+    slab = (x >= lo) & (x <= hi)
+    up, down = slab & (classes == 2), slab & (classes == 0)
+    if not up.any() or not down.any():
+        return float("nan")
+    return float(np.median(states[up, Y]) - np.median(states[down, Y]))
 
 
 def spread_block(n: int = 64, spacing: float = 1.0, params: SPHParams | None = None, seed: int = 0) -> Setup:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.sph.particle import FROZEN, P, VX, VY, X, Y
+from agent.sph.particle import FROZEN, P, VX, VY
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import Setup
 
@@ -60,16 +60,3 @@ def record(setup: Setup, steps: int, controls=None, classes: np.ndarray | None =
         d.step()
         sample(d.states)
     return Series(*(np.array(rows[n]) for n in ("speed", "vx", "vy", "avy", "p")), d.states.copy(), np.array(frozen))
-
-
-def branch_gap(classes: np.ndarray, states: np.ndarray) -> float:
-    """Distance in y between the upper and lower edge bands (median heights, classes 2 and 0) in the
-    central 40 % of the flow's length: how far the two branches have moved apart."""
-    x = states[:, X]
-    lo, hi = np.percentile(x, [30, 70])
-    slab = (x >= lo) & (x <= hi)
-    up, down = slab & (classes == 2), slab & (classes == 0)
-    if not up.any() or not down.any():
-        return float("nan")
-    return float(np.median(states[up, Y]) - np.median(states[down, Y]))
-

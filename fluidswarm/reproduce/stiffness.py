@@ -18,7 +18,8 @@ from agent.sph.particle import FROZEN, Y
 from agent.sph.setups import branching
 from fluidswarm.reproduce import plots
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
-from fluidswarm.reproduce.runs import branch_gap, record
+from agent.sph.setups import branch_gap
+from fluidswarm.reproduce.runs import record
 
 MIDDLE, EDGES = [1], [0, 2]
 DOMAIN = (-20.0, 100.0, -40.0, 50.0)
