@@ -27,6 +27,7 @@ from scipy.linalg import eigh
 from threadpoolctl import threadpool_limits
 
 from perception import features
+from perception.dataset import load_folder, shared_hands_root
 from perception.io import InputError
 
 METHODS = ("baseline", "best")
@@ -218,12 +219,11 @@ class EigenClassifier:
 
 
 def train_default(method: str = "best", verbose: bool = False) -> EigenClassifier:
-    """Train on the whole shared hand set (../shared/datasets/sign-language-digits)."""
-    from perception.dataset import load_folder, shared_hands_root
-
-    images, labels, _ = load_folder(shared_hands_root())
+    """Train on the whole shared hand set (../shared/datasets/sign-language-digits), labelled by class
+    name as the shipped model is."""
+    images, labels, names, _files = load_folder(shared_hands_root())
     t = time.perf_counter()
-    clf = EigenClassifier(method=method).fit(images, labels)
+    clf = EigenClassifier(method=method).fit(images, np.array(names)[labels])
     if verbose:
         print(f"trained {method} on {len(images)} images in {time.perf_counter() - t:.2f} s")
     return clf

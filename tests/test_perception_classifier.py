@@ -7,8 +7,10 @@ import time
 import numpy as np
 import pytest
 
+from perception import dataset, eigen
 from perception.dataset import is_test_file, load_folder
 from perception.eigen import MODEL_PATH, EigenClassifier, default_model
+from perception.io import load_image
 from perception.segmentation import SegmentationError, hand_mask
 
 FOLDS = 5
@@ -79,6 +81,21 @@ def test_shipped_model_is_the_best_method_and_knows_the_ten_classes(hands):
     assert MODEL_PATH.is_file()
     clf = default_model()
     assert clf.method == "best" and sorted(set(clf.train_labels)) == [str(d) for d in range(10)]
+
+
+def test_without_the_shipped_model_one_is_trained_from_the_shared_set(shared_hands, tmp_path, monkeypatch):
+    """default_model's fallback (train_default), here on three classes of the shared set: labelled by class
+    name like the shipped model, and it knows its own training pictures."""
+    for cls in "012":
+        (tmp_path / cls).mkdir()
+        for f in sorted((shared_hands / cls).iterdir())[:12]:
+            (tmp_path / cls / f.name).symlink_to(f)
+    monkeypatch.setattr(eigen, "MODEL_PATH", tmp_path / "missing.npz")
+    monkeypatch.setattr(dataset, "SHARED_HANDS", tmp_path)
+    clf = default_model()
+    assert clf.method == "best" and sorted(set(clf.train_labels)) == ["0", "1", "2"]
+    firsts = [load_image(sorted((tmp_path / cls).iterdir())[0]) for cls in "012"]
+    assert [str(label) for label in clf.predict(firsts)] == ["0", "1", "2"]
 
 
 def test_documented_split_is_fixed():
