@@ -55,3 +55,15 @@ def nearest_point(rings: Sequence[Ring], x: float, y: float) -> tuple[float, flo
             if d2 < best:
                 best, bx, by = d2, px, py
     return bx, by
+
+
+def zone_material(zones, x: float, y: float, beta: float, mu: float) -> tuple[float, float]:
+    """(beta, mu) of the first zone (an ellipse, agent/protocol/command.py `Zone`) that holds (x, y); the
+    given ones where none does."""
+    for z in zones:
+        dx, dy = x - z.x, y - z.y
+        p = (dx * z.ux + dy * z.uy) / z.a
+        q = (dy * z.ux - dx * z.uy) / z.b
+        if p * p + q * q <= 1.0:
+            return z.beta, z.mu
+    return beta, mu

@@ -20,7 +20,7 @@ from agent.fill import inside, nearest_point
 from coordinator.control.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
 from agent.sph.particle import NFIELDS, Control
 from agent.protocol.wire import decode_state, encode_state
-from agent.protocol.command import CommandRejected, Fill, Waypoint, decode, edges_cross
+from agent.protocol.command import CommandRejected, Fill, Waypoint, Zone, decode, edges_cross
 
 VECTORS = Path(__file__).resolve().parent / "vectors"
 
@@ -67,7 +67,8 @@ def test_command(v):
            "beta": cmd.beta, "mu": cmd.mu}
     if cmd.fill is not None:
         got["fill"] = {"rings": [[list(p) for p in ring] for ring in cmd.fill.rings], "alpha": cmd.fill.alpha,
-                       "s": cmd.fill.s}
+                       "s": cmd.fill.s,
+                       "zones": [[z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu] for z in cmd.fill.zones]}
     assert same(got, v["expect"])
 
 
@@ -122,7 +123,8 @@ FILL = load("fill.json")
 @pytest.mark.parametrize("case", FILL["followers"], ids=lambda c: c["name"])
 def test_fill_follower(case):
     rings = tuple(tuple((x, y) for x, y in ring) for ring in case["rings"])
-    f = FillFollower(Fill(rings, case["alpha"], case["s"]), case["beta"], case["mu"])
+    zones = tuple(Zone(*z) for z in case["zones"])
+    f = FillFollower(Fill(rings, case["alpha"], case["s"], zones), case["beta"], case["mu"])
     for step in case["steps"]:
         x, y = step["position"]
         assert inside(rings, x, y) == step["inside"], step

@@ -22,6 +22,7 @@ MAX_ROUTE = 32
 MAX_COORD = 1e6
 MAX_RINGS = 32
 MAX_VERTICES = 512  # over all rings of a fill shape: the crossing check is O(V^2) in every agent
+MAX_ZONES = 16  # material zones of a fill shape (fingers, arms)
 
 
 class CommandRejected(ValueError):
@@ -54,6 +55,23 @@ class ParticleClass:
 
 
 @dataclass(frozen=True)
+class Zone:
+    """Part of the shape where the fluid is another material (thesis ch. 6: the region controller switches
+    beta 2 -> 20 in the arms and 2 -> 50 in the fingers): an ellipse with centre (x, y) [m], unit major axis
+    (ux, uy) and semi-axes a, b [m]. An agent inside it, ((d.u)/a)^2 + ((d x u)/b)^2 <= 1 with d its offset
+    from the centre, uses stiffness `beta` [N/m] and viscosity `mu` [kg/s]; the first zone that holds it wins."""
+
+    x: float
+    y: float
+    ux: float
+    uy: float
+    a: float
+    b: float
+    beta: float
+    mu: float
+
+
+@dataclass(frozen=True)
 class Fill:
     """The silhouette the swarm fills (agent/fill.py): `rings` of (x, y) vertices [m], closed implicitly,
     even-odd (a ring inside another is a hole), no two edges crossing; already eroded by half a particle
@@ -63,6 +81,7 @@ class Fill:
     rings: tuple[tuple[tuple[float, float], ...], ...]
     alpha: float
     s: float
+    zones: tuple[Zone, ...] = ()  # where stiffness/viscosity differ from the command's beta/mu
 
 
 @dataclass(frozen=True)
@@ -83,6 +102,8 @@ class GestureCommand:
         else:
             d["fill"] = {"rings": [[list(v) for v in ring] for ring in self.fill.rings],
                          "alpha": self.fill.alpha, "s": self.fill.s}
+            if self.fill.zones:  # a shape without zones keeps its bytes
+                d["fill"]["zones"] = [asdict(z) for z in self.fill.zones]
         d["classes"] = [{"name": c.name, "share": c.share,
                          "route": [{k: v for k, v in asdict(w).items() if v is not None} for w in c.route]}
                         for c in self.classes]
@@ -212,7 +233,7 @@ def parse_body(body: dict) -> GestureCommand:
 
 
 def _fill(f) -> Fill:
-    _only(f, {"rings", "alpha", "s"}, "fill")
+    _only(f, {"rings", "alpha", "s", "zones"}, "fill")
     raw = f.get("rings")
     if not isinstance(raw, list) or not 1 <= len(raw) <= MAX_RINGS:
         raise CommandRejected("malformed", "fill rings")
@@ -231,7 +252,27 @@ def _fill(f) -> Fill:
         rings.append(tuple(vs))
     if edges_cross(rings):
         raise CommandRejected("malformed", "fill rings cross themselves or each other")
-    return Fill(tuple(rings), _num(f, "alpha", 0.0, 1e4), _num(f, "s", 0.0, MAX_COORD))
+    zones = tuple(_zone(z) for z in _zone_list(f))
+    return Fill(tuple(rings), _num(f, "alpha", 0.0, 1e4), _num(f, "s", 0.0, MAX_COORD), zones)
+
+
+def _zone_list(f: dict) -> list:
+    raw = f.get("zones", [])
+    if not isinstance(raw, list) or len(raw) > MAX_ZONES:
+        raise CommandRejected("malformed", f"fill zones (a list of at most {MAX_ZONES})")
+    return raw
+
+
+def _zone(z) -> Zone:
+    _only(z, {"x", "y", "ux", "uy", "a", "b", "beta", "mu"}, "fill zone")
+    ux, uy = _num(z, "ux", -1.0, 1.0), _num(z, "uy", -1.0, 1.0)
+    if abs(ux * ux + uy * uy - 1.0) > 1e-6:
+        raise CommandRejected("malformed", "fill zone axis is not a unit vector")
+    a, b = _num(z, "a", 0.0, MAX_COORD), _num(z, "b", 0.0, MAX_COORD)
+    if not (a > 0.0 and b > 0.0):
+        raise CommandRejected("malformed", "fill zone semi-axes must be > 0")
+    return Zone(_num(z, "x", -MAX_COORD, MAX_COORD), _num(z, "y", -MAX_COORD, MAX_COORD), ux, uy, a, b,
+                _num(z, "beta", 0.0, 1e4), _num(z, "mu", 0.0, 1e4))
 
 
 def _side(ax, ay, bx, by, cx, cy):

@@ -26,7 +26,7 @@ import numpy as np
 
 from agent.sph.kernel import gaussian_kernel
 from agent.sph.params import SPHParams
-from agent.protocol.command import MAX_RINGS, MAX_VERTICES, Fill, GestureCommand, ParticleClass, Waypoint, edges_cross
+from agent.protocol.command import MAX_RINGS, MAX_VERTICES, MAX_ZONES, Fill, GestureCommand, ParticleClass, Waypoint, Zone, edges_cross
 from coordinator.control.geometry import ImageToDomain
 
 AREA_PER_PARTICLE = 1.7  # m^2 of silhouette per particle
@@ -34,6 +34,9 @@ COMPRESSION = 0.85  # rest density / the density the area calls for
 THIN_PART = 0.5  # erode a thin part by at most this fraction of its half-width
 ALPHA, RAMP = 80.0, 0.2  # the wall: 80 1/s^2 over 0.2 m (at most 16 m/s^2 back into the shape)
 BETA, MU = 2.0, 0.2
+FINGER_BETA, FINGER_MU = 5.0, 1.0  # the fingers' material (thesis: beta 2 -> 50 past the palm; 50 measured worse, docs/fill.md)
+ARM_BETA, ARM_MU = 20.0, 1.0  # the arms' material (thesis: beta 2 -> 20 past the shoulders, §6.3)
+ZONE_GROW = 1.2  # a moment ellipse (4 sigma) stops short of a part's ends
 INITIAL_SPACING = 1.2  # m, the starting lattice at the palm / torso centre
 MIN_PIXELS = 20  # a smaller silhouette does not say what shape it is (a coarse one is fine: a 64 px clip's
                  # person of ~200 pixels still outlines 300 particles; where a spacing is under a pixel the
@@ -105,13 +108,29 @@ def shape_rings(mask: np.ndarray, transform: ImageToDomain, n_agents: int) -> tu
     raise ShapeError(f"the silhouette's outline needs more than {MAX_VERTICES} vertices")
 
 
+def material_zones(ellipses, transform: ImageToDomain, beta: float, mu: float) -> tuple[Zone, ...]:
+    """Zones (agent/protocol/command.py) of the given pixel ellipses (perception/ellipses.py), grown by
+    ZONE_GROW so that they reach the part's outline, all of one material."""
+    zones = []
+    for e in ellipses[:MAX_ZONES]:
+        x, y = transform.to_domain(np.array([e.x_c, e.y_c]) + 0.5)
+        angle = math.radians(e.orientation_deg)  # counter-clockwise on screen = in the domain (y up)
+        a = max(0.5 * ZONE_GROW * e.l_major * transform.scale, 1e-3)
+        b = max(0.5 * ZONE_GROW * e.l_minor * transform.scale, 1e-3)
+        zones.append(Zone(float(x), float(y), math.cos(angle), math.sin(angle), a, b, beta, mu))
+    return tuple(zones)
+
+
 def fill_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, seq: int = 1,
-                 gesture: str = "fill") -> GestureCommand:
-    """The command that makes `n_agents` particles fill `mask` (seen through `transform`)."""
+                 gesture: str = "fill", zones: tuple[Zone, ...] = ()) -> GestureCommand:
+    """The command that makes `n_agents` particles fill `mask` (seen through `transform`); `zones` are
+    the parts where the fluid is another material (`material_zones`)."""
     rings = shape_rings(mask, transform, n_agents)
     ys, xs = np.nonzero(mask)
     cx, cy = transform.to_domain(np.array([xs.mean(), ys.mean()]) + 0.5)
     # One class: with a shape, routes are not followed; the class names what the particles do.
     fill_class = ParticleClass("fill", 1.0, (Waypoint(float(cx), float(cy), 0.0, 0.0, 0.0),))
     extra = {"controller": "fill", "rings": len(rings), "vertices": sum(len(r) for r in rings)}
-    return GestureCommand(seq, gesture[:64], n_agents, (fill_class,), BETA, MU, extra, Fill(rings, ALPHA, RAMP))
+    if zones:
+        extra["zones"] = len(zones)
+    return GestureCommand(seq, gesture[:64], n_agents, (fill_class,), BETA, MU, extra, Fill(rings, ALPHA, RAMP, zones))

@@ -10,7 +10,9 @@ from agent.sph.params import SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from agent.protocol.command import GestureCommand
-from coordinator.control.fill import AREA_PER_PARTICLE as FILL_AREA, INITIAL_SPACING as FILL_SPACING, fill_command, rest_density
+from coordinator.control.fill import (ARM_BETA, ARM_MU, AREA_PER_PARTICLE as FILL_AREA, FINGER_BETA, FINGER_MU,
+                                      INITIAL_SPACING as FILL_SPACING, fill_command, material_zones, rest_density)
+from perception.ellipses import fit_ellipse, hand_regions
 from coordinator.control.region import AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command
 from coordinator.control.geometry import ImageToDomain
 from perception.segmentation import hand_mask
@@ -54,10 +56,24 @@ def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDo
     return ImageToDomain(scale=scale, x0=0.0, y0=mask.shape[0] * scale)
 
 
+def fill_zones(obs, transform: ImageToDomain):
+    """Where the thesis' region controller switches the material: the arms of a body (thesis §6.3,
+    beta 2 -> 20 past the shoulders), the fingers of a hand (beta 2 -> 50 past the palm, §6.2.2)."""
+    if obs.kind == "body":
+        arms = [fit_ellipse(obs.parts[k]) for k in ("left_arm", "right_arm") if k in obs.parts]
+        return material_zones([e for e in arms if e is not None], transform, ARM_BETA, ARM_MU)
+    try:
+        fingers = hand_regions(obs.mask)["fingers"]
+    except ValueError:  # an empty silhouette: shape_rings says why
+        return ()
+    return material_zones(fingers, transform, FINGER_BETA, FINGER_MU)
+
+
 def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1) -> GestureCommand:
     """The chosen controller's command for one observation (coordinator.control.observe.Observation)."""
     if controller == "fill":
-        return fill_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
+        return fill_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64],
+                            zones=fill_zones(obs, transform))
     if controller == "region":
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)

@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from agent.fill import inside, nearest_point
+from agent.fill import inside, nearest_point, zone_material
 from agent.sph.particle import X, Y, Control
 
 
@@ -71,19 +71,21 @@ class RouteFollower:
 
 class FillFollower:
     """The fill law (agent/fill.py): no body force inside the shape, eq. 6.2 towards the nearest boundary
-    point outside it (r = 0, so the pull fades to nothing on the boundary)."""
+    point outside it (r = 0, so the pull fades to nothing on the boundary); the stiffness and viscosity of
+    the zone the particle is in (`zone_material`), else the command's."""
 
     def __init__(self, fill, beta: float, mu: float):
-        self.rings, self.alpha, self.s = fill.rings, fill.alpha, fill.s
+        self.rings, self.alpha, self.s, self.zones = fill.rings, fill.alpha, fill.s, fill.zones
         self.beta, self.mu = beta, mu
         self.index = 0  # no waypoints: reported as waypoint 0
 
     def control(self, state: np.ndarray, step: int) -> Control:
         x, y = state[X], state[Y]
+        beta, mu = zone_material(self.zones, x, y, self.beta, self.mu)
         if inside(self.rings, x, y):
-            return Control(x, y, 0.0, self.s, 0.0, self.beta, self.mu)
+            return Control(x, y, 0.0, self.s, 0.0, beta, mu)
         px, py = nearest_point(self.rings, x, y)
-        return Control(px, py, 0.0, self.s, self.alpha, self.beta, self.mu)
+        return Control(px, py, 0.0, self.s, self.alpha, beta, mu)
 
 
 def follower(command, particle_class: int):

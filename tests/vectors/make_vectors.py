@@ -39,7 +39,7 @@ from coordinator.control.route import CommandFollower, FillFollower, RouteFollow
 from agent.sph.particle import NFIELDS, Control  # noqa: E402
 from agent.protocol.wire import decode_state, encode_state  # noqa: E402
 from agent.protocol.command import (  # noqa: E402
-    MAX_BYTES, MAX_RINGS, MAX_VERTICES, CommandRejected, Fill, GestureCommand, ParticleClass, Waypoint, _canonical,
+    MAX_BYTES, MAX_RINGS, MAX_VERTICES, CommandRejected, Fill, GestureCommand, ParticleClass, Waypoint, Zone, _canonical,
     decode, edges_cross)
 
 # The digit-2 hand photo of the shared sign-language-digits set (IMG_1140.JPG), committed with the scenarios:
@@ -343,7 +343,15 @@ def command_vectors() -> list:
 
 
 def fill_list(fill: Fill) -> dict:
-    return {"rings": [[list(v) for v in ring] for ring in fill.rings], "alpha": fill.alpha, "s": fill.s}
+    return {"rings": [[list(v) for v in ring] for ring in fill.rings], "alpha": fill.alpha, "s": fill.s,
+            "zones": [zone_list(z) for z in fill.zones]}
+
+
+def zone_list(z: Zone) -> list:
+    return [z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu]
+
+
+ZONE = {"x": 1.0, "y": 2.0, "ux": 0.6, "uy": 0.8, "a": 3.0, "b": 1.5, "beta": 20.0, "mu": 1.0}
 
 
 def square(x0, y0, side) -> list:
@@ -404,6 +412,21 @@ def fill_command_cases() -> list:
         ("valid_fill_small_ints_alpha_s_zero",
          sign(body(fill=fill(rings=[[[-1, 0], [1, 0], [0, 1]]], alpha=0, s=0.0)))),
 
+        ("valid_fill_zones", sign(body(fill=fill(zones=[ZONE, dict(ZONE, x=-4, ux=1, uy=0, beta=5, mu=0)])))),
+        ("valid_fill_zones_empty", sign(body(fill=fill(zones=[])))),
+        ("valid_fill_zones_16", sign(body(fill=fill(zones=[dict(ZONE, x=float(k)) for k in range(16)])))),
+        ("fill_zones_17", sign(body(fill=fill(zones=[dict(ZONE, x=float(k)) for k in range(17)])))),
+        ("fill_zones_not_list", sign(body(fill=fill(zones=ZONE)))),
+        ("fill_zone_not_object", sign(body(fill=fill(zones=[[1.0, 2.0, 0.6, 0.8, 3.0, 1.5, 20.0, 1.0]])))),
+        ("fill_zone_unknown_key", sign(body(fill=fill(zones=[dict(ZONE, r=1.0)])))),
+        ("fill_zone_missing_mu", sign(body(fill=fill(zones=[{k: v for k, v in ZONE.items() if k != "mu"}])))),
+        ("fill_zone_axis_not_unit", sign(body(fill=fill(zones=[dict(ZONE, ux=0.6, uy=0.81)])))),
+        ("fill_zone_axis_beyond_1", sign(body(fill=fill(zones=[dict(ZONE, ux=1.5, uy=0.0)])))),
+        ("fill_zone_a_zero", sign(body(fill=fill(zones=[dict(ZONE, a=0.0)])))),
+        ("fill_zone_b_negative", sign(body(fill=fill(zones=[dict(ZONE, b=-1.0)])))),
+        ("fill_zone_beta_beyond_1e4", sign(body(fill=fill(zones=[dict(ZONE, beta=10001.0)])))),
+        ("fill_zone_mu_bool", sign(body(fill=fill(zones=[dict(ZONE, mu=True)])))),
+        ("fill_zone_x_nan", sign_raw(_canonical(body(fill=fill(zones=[dict(ZONE, x="@@")]))).replace(b'"@@"', b"NaN"))),
         ("fill_crossing_rings", sign(body(fill=fill(rings=[square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)])))),
         ("fill_bow_tie", sign(body(fill=fill(rings=[[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]])))),
         ("fill_ring_crosses_itself_far_apart",
@@ -601,7 +624,9 @@ def fill_vectors() -> dict:
     shapes = [
         ("square_with_hole", (((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)),
                               ((4.0, 4.0), (6.0, 4.0), (6.0, 6.0), (4.0, 6.0))), 80.0, 0.2),
-        ("photo", photo.rings, photo.alpha, photo.s),
+        ("photo", photo.rings, photo.alpha, photo.s, photo.zones),
+        ("square_with_overlapping_zones", (((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)),), 80.0, 0.2,
+         (Zone(3.0, 4.0, 0.6, 0.8, 3.0, 1.5, 20.0, 1.0), Zone(5.0, 5.0, 1.0, 0.0, 2.0, 2.0, 5.0, 0.0))),
         ("u_shape_clockwise", (((0.0, 0.0), (0.0, 6.0), (1.0, 6.0), (1.0, 1.0), (3.0, 1.0), (3.0, 6.0), (4.0, 6.0),
                                 (4.0, 0.0)),), 50.0, 0.5),
         ("triangle_duplicate_vertex_and_spike", (((0.1, 0.2), (0.1, 0.2), (3.3, 0.7), (1.7, 2.9), (1.7, 4.0),
@@ -610,8 +635,12 @@ def fill_vectors() -> dict:
          0.0, 1.0),
     ]
     cases = []
-    for name, rings, alpha, s in shapes:
+    for name, rings, alpha, s, *rest in shapes:
+        zones = rest[0] if rest else ()
         pts = {(x, y) for ring in rings for x, y in ring}  # on the vertices
+        for z in zones:  # on the zones' axes' ends and just inside/outside them
+            for t in (1.0, math.nextafter(1.0, 0.0), math.nextafter(1.0, 2.0)):
+                pts |= {(z.x + t * z.a * z.ux, z.y + t * z.a * z.uy), (z.x - t * z.b * z.uy, z.y + t * z.b * z.ux)}
         for ring in rings:  # on and next to the edges' midpoints, and on the horizontal lines of the vertices
             for k in range(len(ring)):
                 (x1, y1), (x2, y2) = ring[k], ring[(k + 1) % len(ring)]
@@ -624,7 +653,7 @@ def fill_vectors() -> dict:
         for _ in range(60):
             pts.add((rng.uniform(x0, x1), rng.uniform(y0, y1)))
         pts |= {(x0 - 1e3, y0), (0.1 + 0.2, 0.30000000000000004), (-0.0, -0.0)}
-        f = FillFollower(Fill(rings, alpha, s), 2.0, 0.2)
+        f = FillFollower(Fill(rings, alpha, s, zones), 2.0, 0.2)
         steps = []
         for x, y in sorted(pts):
             state = np.zeros(NFIELDS)
@@ -632,7 +661,7 @@ def fill_vectors() -> dict:
             steps.append({"position": [x, y], "inside": inside(rings, x, y), "nearest": list(nearest_point(rings, x, y)),
                           "control": control_list(f.control(state, 0))})
         cases.append({"name": name, "rings": [[list(v) for v in ring] for ring in rings], "alpha": alpha, "s": s,
-                      "beta": 2.0, "mu": 0.2, "steps": steps})
+                      "zones": [zone_list(z) for z in zones], "beta": 2.0, "mu": 0.2, "steps": steps})
     assert any(st["inside"] for c in cases for st in c["steps"]) and not all(st["inside"] for c in cases for st in c["steps"])
 
     crossing = [

@@ -29,6 +29,8 @@ pub const MAX_COORD: f64 = 1e6;
 pub const MAX_RINGS: usize = 32;
 /// Over all rings of a fill shape: the crossing check is O(V^2) in every agent.
 pub const MAX_VERTICES: usize = 512;
+/// Material zones of a fill shape (fingers, arms).
+pub const MAX_ZONES: usize = 16;
 /// Containers nested deeper than this are refused. CPython has no fixed limit: its RecursionError comes at
 /// the interpreter's recursion limit (1000) minus the frames already on the stack, 993 levels when decode is
 /// called from a shallow stack in CPython 3.11, fewer from deeper ones. A legitimate command nests 5 deep
@@ -672,6 +674,22 @@ pub struct Fill {
     pub rings: Vec<Ring>,
     pub alpha: f64,
     pub s: f64,
+    /// Where stiffness/viscosity differ from the command's (fingers, arms); empty when not sent.
+    pub zones: Vec<Zone>,
+}
+
+/// A material zone of the shape (agent/protocol/command.py `Zone`): an ellipse with centre (x, y) [m], unit
+/// major axis (ux, uy) and semi-axes a, b [m]; an agent inside it uses `beta` and `mu`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Zone {
+    pub x: f64,
+    pub y: f64,
+    pub ux: f64,
+    pub uy: f64,
+    pub a: f64,
+    pub b: f64,
+    pub beta: f64,
+    pub mu: f64,
 }
 
 #[derive(Clone, Debug)]
@@ -825,7 +843,7 @@ pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
 /// `_fill`: 1..=MAX_RINGS rings of at least 3 [x, y] vertices, at most MAX_VERTICES in all, no two edges
 /// crossing; alpha in [0, 1e4], s in [0, MAX_COORD]; no other key. Every failure is "malformed".
 fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
-    let f = only(f, &["rings", "alpha", "s"])?;
+    let f = only(f, &["rings", "alpha", "s", "zones"])?;
     let mut rings = Vec::new();
     let mut total = 0;
     for ring in list(get(f, "rings"), MAX_RINGS)? {
@@ -851,7 +869,35 @@ fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
     if edges_cross(&rings) {
         return Err(MALFORMED);
     }
-    Ok(Fill { rings, alpha: required(f, "alpha", 0.0, 1e4)?, s: required(f, "s", 0.0, MAX_COORD)? })
+    let zones = match get(f, "zones") {
+        None => Vec::new(),
+        Some(Json::Array(zs)) if zs.len() <= MAX_ZONES => zs.iter().map(parse_zone).collect::<Result<_, _>>()?,
+        Some(_) => return Err(MALFORMED),
+    };
+    Ok(Fill { rings, alpha: required(f, "alpha", 0.0, 1e4)?, s: required(f, "s", 0.0, MAX_COORD)?, zones })
+}
+
+/// `_zone`: an ellipse with a unit axis (|ux^2 + uy^2 - 1| <= 1e-6) and semi-axes > 0; no other key.
+fn parse_zone(z: &Json) -> Result<Zone, &'static str> {
+    let z = only(z, &["x", "y", "ux", "uy", "a", "b", "beta", "mu"])?;
+    let (ux, uy) = (required(z, "ux", -1.0, 1.0)?, required(z, "uy", -1.0, 1.0)?);
+    if (ux * ux + uy * uy - 1.0).abs() > 1e-6 {
+        return Err(MALFORMED);
+    }
+    let (a, b) = (required(z, "a", 0.0, MAX_COORD)?, required(z, "b", 0.0, MAX_COORD)?);
+    if !(a > 0.0 && b > 0.0) {
+        return Err(MALFORMED);
+    }
+    Ok(Zone {
+        x: required(z, "x", -MAX_COORD, MAX_COORD)?,
+        y: required(z, "y", -MAX_COORD, MAX_COORD)?,
+        ux,
+        uy,
+        a,
+        b,
+        beta: required(z, "beta", 0.0, 1e4)?,
+        mu: required(z, "mu", 0.0, 1e4)?,
+    })
 }
 
 /// Verify and parse an envelope from the network: Err("malformed" | "version" | "signature").

@@ -8,8 +8,8 @@ use std::collections::HashSet;
 
 use serde_json::{Map, Value};
 
-use crate::command::{self, Fill, GestureCommand, Waypoint};
-use crate::fill::{inside, nearest_point, Ring};
+use crate::command::{self, Fill, GestureCommand, Waypoint, Zone};
+use crate::fill::{inside, nearest_point, zone_material, Ring};
 use crate::sph::{Control, State, X, Y};
 
 /// Largest-remainder split of n particles over the class shares (deterministic).
@@ -114,29 +114,32 @@ impl RouteFollower {
 }
 
 /// The fill law (agent/fill.py): no body force inside the shape, eq. 6.2 towards the nearest boundary point
-/// outside it (r = 0, so the pull fades to nothing on the boundary).
+/// outside it (r = 0, so the pull fades to nothing on the boundary); the stiffness and viscosity of the zone
+/// the particle is in, else the command's.
 #[derive(Clone, Debug)]
 pub struct FillFollower {
     pub rings: Vec<Ring>,
     pub alpha: f64,
     pub s: f64,
+    pub zones: Vec<Zone>,
     pub beta: f64,
     pub mu: f64,
 }
 
 impl FillFollower {
     pub fn new(fill: &Fill, beta: f64, mu: f64) -> Self {
-        FillFollower { rings: fill.rings.clone(), alpha: fill.alpha, s: fill.s, beta, mu }
+        FillFollower { rings: fill.rings.clone(), alpha: fill.alpha, s: fill.s, zones: fill.zones.clone(), beta, mu }
     }
 
     pub fn control(&self, x: f64, y: f64) -> Control {
+        let (beta, mu) = zone_material(&self.zones, x, y, self.beta, self.mu);
         let (wx, wy, alpha) = if inside(&self.rings, x, y) {
             (x, y, 0.0)
         } else {
             let (px, py) = nearest_point(&self.rings, x, y);
             (px, py, self.alpha)
         };
-        Control { wx, wy, r: 0.0, s: self.s, alpha, beta: self.beta, mu: self.mu, push_x: 0.0, push_y: 0.0 }
+        Control { wx, wy, r: 0.0, s: self.s, alpha, beta, mu, push_x: 0.0, push_y: 0.0 }
     }
 }
 

@@ -77,6 +77,17 @@ fn rings(v: &Value) -> Vec<Ring> {
         .collect()
 }
 
+fn zones(v: &Value) -> Vec<command::Zone> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|z| {
+            let z: Vec<f64> = z.as_array().unwrap().iter().map(f).collect();
+            command::Zone { x: z[0], y: z[1], ux: z[2], uy: z[3], a: z[4], b: z[5], beta: z[6], mu: z[7] }
+        })
+        .collect()
+}
+
 fn same_rings(got: &[Ring], want: &Value, what: &str) {
     let want = want.as_array().unwrap();
     assert_eq!(got.len(), want.len(), "{what}: rings");
@@ -156,6 +167,15 @@ fn commands() {
                         same_rings(&fill.rings, &want["rings"], name);
                         same_f64(fill.alpha, &want["alpha"], &format!("{name} fill alpha"));
                         same_f64(fill.s, &want["s"], &format!("{name} fill s"));
+                        let want_zones = zones(&want["zones"]);
+                        assert_eq!(fill.zones.len(), want_zones.len(), "{name} zones");
+                        for (k, (z, w)) in fill.zones.iter().zip(&want_zones).enumerate() {
+                            let got = [z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu];
+                            let want = [w.x, w.y, w.ux, w.uy, w.a, w.b, w.beta, w.mu];
+                            for (g, w) in got.iter().zip(want) {
+                                assert_eq!(g.to_bits(), w.to_bits(), "{name} zone {k}: {z:?}");
+                            }
+                        }
                     }
                     (got, want) => panic!("{name}: fill {got:?}, want {want:?}"),
                 }
@@ -244,7 +264,12 @@ fn fill_followers() {
     assert!(!cases.is_empty());
     for case in cases {
         let name = case["name"].as_str().unwrap();
-        let fill = command::Fill { rings: rings(&case["rings"]), alpha: f(&case["alpha"]), s: f(&case["s"]) };
+        let fill = command::Fill {
+            rings: rings(&case["rings"]),
+            alpha: f(&case["alpha"]),
+            s: f(&case["s"]),
+            zones: zones(&case["zones"]),
+        };
         let follower = FillFollower::new(&fill, f(&case["beta"]), f(&case["mu"]));
         for (j, step) in case["steps"].as_array().unwrap().iter().enumerate() {
             let what = format!("{name} step {j} at {}", step["position"]);
