@@ -21,7 +21,7 @@ import tempfile
 import threading
 import time
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -30,6 +30,7 @@ import zenoh
 from agent.protocol import keys
 from agent.executable import agent_executable
 from agent.initial_neighbours import initial_neighbours
+from agent.protocol.access import LaunchAccess
 from agent.protocol.session import router_config
 from agent.protocol.spec import AgentSpec
 from agent.sph.particle import Control
@@ -117,7 +118,7 @@ class Launcher:
 
     def __init__(self, run: str | None = None, connect: str | None = None, listen: str | None = None,
                  secret: str | None = None, agent_timeout: float = 2.0, quiet: bool = True,
-                 user: str = "", password: str = "", router_auth_file: str = "", commands: bool = False):
+                 user: str = "", password: str = "", auth_file: str = "", commands: bool = False):
         self.run = run or f"run-{uuid.uuid4().hex[:8]}"
         if not keys.valid_run_name(self.run):
             raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
@@ -131,7 +132,8 @@ class Launcher:
         if connect:
             self.endpoint = connect
             from agent.protocol.session import client_config
-            conf = client_config([connect], user, password)
+            self.access = LaunchAccess.client(user, password, auth_file)  # docs/security.md
+            conf = client_config([connect], *(astuple(self.access.own) if self.access.own else ()))
             self.agent_endpoint = connect
         else:
             self.endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
@@ -143,8 +145,12 @@ class Launcher:
                 self._socket_dir = tempfile.mkdtemp(prefix="fluidswarm-")
                 self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
                 listeners.append(self.agent_endpoint)
-            conf = router_config(listeners, dictionary_file=router_auth_file, user=user, password=password)
-        self.session = zenoh.open(conf)
+            self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
+            conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
+        try:
+            self.session = zenoh.open(conf)
+        finally:
+            self.access.opened()
         self.swarm = Swarm(self.run, self.endpoint, self.session)
         self._subs = [
             self.session.declare_subscriber(keys.final_expr(self.run), self._on_final),
@@ -178,6 +184,8 @@ class Launcher:
         if len(data) != STATE_SIZE:
             return
         agent_id, step = _ID_STEP.unpack_from(data, 4)
+        if keys.id_from_key(str(sample.key_expr)) != agent_id:
+            return  # under another agent's key: a forgery (docs/security.md)
         now = time.monotonic()
         last = self.agent_steps.get(agent_id)
         if (last is None or step > last[0]) and step <= self.max_step + 1000:
@@ -255,6 +263,8 @@ class Launcher:
             msg = json.loads(sample.payload.to_bytes())
         except ValueError:
             return
+        if not isinstance(msg, dict) or msg.get("id") != keys.id_from_key(str(sample.key_expr)):
+            return  # malformed, or under another agent's key
         with self.swarm.changed:
             self.swarm.events.append(msg)
 
@@ -282,15 +292,14 @@ class Launcher:
         out = subprocess.DEVNULL if self.quiet else None
         cmd = [sys.executable, "-m", "fluidswarm.recording.recorder", "--connect", self.endpoint, "--run", self.run,
                "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta)]
-        if self.user:
-            cmd += ["--user", self.user, "--password", self.password]
         if target:
             cmd += ["--target", target]
         if image:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
-        self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+        self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent,
+                                         env=dict(os.environ, **self.access.env_for("recorder")))
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"
         while time.monotonic() < deadline:
@@ -322,11 +331,11 @@ class Launcher:
         p["domain"] = list(p["domain"])
         return AgentSpec(run=self.run, id=int(agent_id), connect=[self.agent_endpoint], steps=int(steps),
                          initial=[float(v) for v in state[:4]], control=asdict(control), params=p,
-                         timeout=self.agent_timeout, user=self.user, password=self.password, **extra)
+                         timeout=self.agent_timeout, **extra)
 
     def spawn(self, spec: AgentSpec) -> subprocess.Popen:
         out = subprocess.DEVNULL if self.quiet else None
-        env = dict(os.environ)
+        env = dict(os.environ, **self.access.env_for_agent(spec.id))
         if self.commands:  # the run's command key travels in the environment, never on the bus or argv
             env["FLUIDSWARM_SECRET"] = self.secret
         # No preexec_fn: it forces a full fork() of this (large) Python process per agent, which made starting

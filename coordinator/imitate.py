@@ -80,7 +80,7 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
         with Launcher(agent_timeout=agent_timeout, commands=True) as launcher:
             launcher.start_recorder(str(mcap), meta, im.setup.params.dt, target=str(target), image=str(image),
                                     live=live)
-            env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
+            env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret, **launcher.access.env_for("coordinator"))
             cmd = [sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
                    "--input", str(input_path), "--agents", str(agents), "--controller", controller]
             cmd += ["--frame-steps", str(frame_steps)] if sequence else ["--frame", str(frame)]
@@ -131,4 +131,3 @@ def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: 
                            formation_seconds=(watch.settled_step if settled else last_step) * im.setup.params.dt,
                            formation_wall_seconds=watch.settled_wall_seconds if settled else res.wall_seconds,
                            settled=settled)
-

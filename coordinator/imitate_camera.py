@@ -97,7 +97,7 @@ def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, ou
     mcap = out / f"{name}.mcap"
     with tempfile.TemporaryDirectory() as tmp, Launcher(agent_timeout=5.0, commands=True) as launcher:
         tmp = Path(tmp)
-        env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret)
+        env = dict(os.environ, FLUIDSWARM_SECRET=launcher.secret, **launcher.access.env_for("coordinator"))
         cmd = [sys.executable, "-m", "coordinator", "--connect", launcher.endpoint, "--run", launcher.run,
                "--camera", str(source), "--fps", repr(float(fps)), "--stall-seconds", repr(float(stall_seconds)),
                "--agents", str(agents), "--controller", controller, "--observations", str(tmp)]

@@ -131,7 +131,9 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
 
     def rogue(la):
         def go():
-            session = zenoh.open(client_config([la.endpoint]))
+            # agent 7's own credentials: the router lets it publish only under id 7 (docs/security.md)
+            cred = la.access.env_for_agent(7)
+            session = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
             try:
                 good = encode_state(7, 0, setup.states[7])
                 bad = [
@@ -146,7 +148,7 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
                 while not stop.is_set():
                     for cx, cy in cells:
                         for payload in bad:
-                            session.put(keys.state_key(la.run, cx, cy), payload)
+                            session.put(keys.state_key(la.run, cx, cy, 7), payload)
                             sent["n"] += 1
                     time.sleep(0.05)
             finally:

@@ -70,7 +70,8 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
         stop = threading.Event()
 
         def coordinator_and_rogue():
-            s = zenoh.open(client_config([la.endpoint]))
+            cred = la.access.env_for("coordinator")
+            s = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
             try:
                 while not stop.is_set():
                     s.put(keys.command_key(la.run), good)  # the real coordinator keeps republishing
@@ -107,7 +108,7 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
 def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_path):
     """The coordinator's commands are parameters only, and a state publisher finds no subscriber in it."""
     with Launcher(commands=True) as la:
-        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret)
+        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
         coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
                                   "--input", str(V_SIGN), "--agents", "30"], env=env)
         got = []
@@ -116,8 +117,9 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
             deadline = time.monotonic() + 30
             while len(got) < 3 and time.monotonic() < deadline:
                 time.sleep(0.1)
-            probe = zenoh.open(client_config([la.endpoint]))
-            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3))
+            cred = la.access.env_for_agent(0)
+            probe = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
+            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 0))
             time.sleep(1.0)
             matching = pub.matching_status.matching
             probe.close()
@@ -138,7 +140,7 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
 def test_late_joiner_gets_the_command_within_one_second():
     im = prepare(cv2.imread(str(V_SIGN)), 12)
     with Launcher(commands=True) as la:
-        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret)
+        env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
         coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
                                   "--input", str(V_SIGN), "--agents", "12"], env=env)
         la.coordinator = coord
@@ -178,7 +180,7 @@ def test_coordinator_publishes_a_new_command_when_the_gesture_changes():
     clip = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"
     secret = os.urandom(32)
     with Launcher(commands=True) as la:
-        env = dict(os.environ, FLUIDSWARM_SECRET=secret.hex())
+        env = dict(os.environ, FLUIDSWARM_SECRET=secret.hex(), **la.access.env_for("coordinator"))
         got = []
         sub = la.session.declare_subscriber(keys.command_key(la.run), lambda s: got.append(s.payload.to_bytes()))
         coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,

@@ -1,6 +1,6 @@
 """Zenoh key expressions of a run: defined once here, documented in docs/protocol.md (protocol v1).
 
-    fluidswarm/<run>/state/<cx>/<cy>        agents' states published in cell (cx, cy) (the record carries the id)
+    fluidswarm/<run>/state/<cx>/<cy>/<id>   agent id's state published in cell (cx, cy) (the record repeats the id)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
     fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
@@ -26,11 +26,15 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
     return math.floor(x / cell), math.floor(y / cell)
 
 
-def state_key(run: str, cx: int, cy: int) -> str:
-    """One exact key per cell, for publishers and subscribers alike: no agent id and no wildcard, so zenoh
-    dispatches a received state by its declared numeric key id instead of matching it against every cell
-    subscription (1.5x the lockstep rate at N = 300, docs/benchmarks/native.md)."""
-    return f"{PREFIX}/{run}/state/{cx}/{cy}"
+def state_key(run: str, cx: int, cy: int, agent_id: int) -> str:
+    """Agent `agent_id`'s state in cell (cx, cy). The id is in the key so that the router's access control
+    lets each agent publish only its own states (docs/security.md); receivers check it equals the record's."""
+    return f"{PREFIX}/{run}/state/{cx}/{cy}/{agent_id}"
+
+
+def cell_expr(run: str, cx: int, cy: int) -> str:
+    """Every agent's state in cell (cx, cy): what an agent subscribes to for each cell it watches."""
+    return f"{PREFIX}/{run}/state/{cx}/{cy}/*"
 
 
 def state_all_expr(run: str) -> str:

@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import json
+import os
 
 import zenoh
 
+from agent.protocol.access import PASSWORD_ENV, USER_ENV
 
-def client_config(endpoints: list[str], user: str = "", password: str = "") -> zenoh.Config:
+
+def client_config(endpoints: list[str], user: str = "", password: str = "", tls: "TlsFiles | None" = None) -> zenoh.Config:
     """A client that keeps retrying its router: 200 processes starting at once overwhelm a router's
-    accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms lets them retry."""
+    accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms lets them retry.
+
+    Without `user`, the credentials its launcher handed it in the environment (FLUIDSWARM_ZENOH_USER and
+    FLUIDSWARM_ZENOH_PASSWORD, agent/protocol/access.py), if any: never on the command line."""
+    if not user:
+        user, password = os.environ.get(USER_ENV, ""), os.environ.get(PASSWORD_ENV, "")
     conf = zenoh.Config()
     conf.insert_json5("mode", '"client"')
     conf.insert_json5("connect/endpoints", json.dumps(endpoints))
@@ -20,6 +28,8 @@ def client_config(endpoints: list[str], user: str = "", password: str = "") -> z
     if user:
         conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
         conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    if tls is not None:
+        tls.apply(conf)
     return conf
 
 
@@ -28,8 +38,13 @@ ACCEPT_PENDING = 2000
 
 
 def router_config(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
-                  user: str = "", password: str = "") -> zenoh.Config:
-    """An in-process router (mode "router"): no external daemon needed."""
+                  user: str = "", password: str = "", acl: dict | None = None,
+                  tls: "TlsFiles | None" = None) -> zenoh.Config:
+    """An in-process router (mode "router"): no external daemon needed.
+
+    `dictionary_file`: usrpwd users (`user:password` lines), required of every session; `acl`: Zenoh's
+    `access_control` section (agent/protocol/access.py: acl_config); `user`/`password`: this router's own
+    credentials towards the routers it connects to; `tls`: certificates for `tls/` endpoints."""
     conf = zenoh.Config()
     conf.insert_json5("mode", '"router"')
     conf.insert_json5("listen/endpoints", json.dumps(listen))
@@ -44,4 +59,28 @@ def router_config(listen: list[str], connect: list[str] | None = None, dictionar
         if user:
             conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
             conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    if acl is not None:
+        conf.insert_json5("access_control", json.dumps(acl))
+    if tls is not None:
+        tls.apply(conf)
     return conf
+
+
+class TlsFiles:
+    """PEM files of a `tls/` link: the CA that signed the peers' certificates, this node's certificate and key.
+
+    Both sides present a certificate and check the other's against the CA (mutual TLS), so only nodes holding
+    a certificate of the swarm's CA open a link (docs/multi-host.md)."""
+
+    def __init__(self, ca: str, cert: str, key: str):
+        for name, path in (("--tls-ca", ca), ("--tls-cert", cert), ("--tls-key", key)):
+            if not os.path.isfile(path):
+                raise ValueError(f"{name} {path}: no such file")
+        self.ca, self.cert, self.key = ca, cert, key
+
+    def apply(self, conf: zenoh.Config) -> None:
+        tls = {"root_ca_certificate": self.ca, "listen_certificate": self.cert, "listen_private_key": self.key,
+               "connect_certificate": self.cert, "connect_private_key": self.key,
+               "enable_mtls": True, "verify_name_on_connect": False}
+        for k, v in tls.items():
+            conf.insert_json5(f"transport/link/tls/{k}", json.dumps(v))

@@ -49,8 +49,6 @@ class AgentSpec:
     drop_out: float = 0.0
     secret: str = ""
     join: bool = False
-    user: str = ""
-    password: str = ""
     mode: str = "lockstep"
     rate: float = 12.0
     max_age: float = 1.0

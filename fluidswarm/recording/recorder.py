@@ -59,13 +59,13 @@ class Recorder:
 
     # callbacks: decode nothing, enqueue
     def on_state(self, sample) -> None:
-        self.inbox.put((0, sample.payload.to_bytes()))
+        self.inbox.put((0, (sample.payload.to_bytes(), str(sample.key_expr))))
 
     def on_alive(self, sample) -> None:
         self.inbox.put((1, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
 
     def on_event(self, sample) -> None:
-        self.inbox.put((2, sample.payload.to_bytes()))
+        self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
 
     def on_command(self, sample) -> None:
         self.inbox.put((3, sample.payload.to_bytes()))
@@ -77,8 +77,11 @@ class Recorder:
         kind, data = item
         self.last_message = time.monotonic()
         if kind == 0:
+            data, key = data
             decoded, _reason = decode_state(data)
-            if decoded is None:
+            # The key's id is the publisher's (the router's access control, docs/security.md); a record
+            # naming another agent is a forgery.
+            if decoded is None or decoded[0] != keys.id_from_key(key):
                 self.rejected += 1
                 return
             j, step, cls, values = decoded
@@ -119,10 +122,14 @@ class Recorder:
                 self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
                 self._write_deaths()
         elif kind == 2:
+            data, key = data
             try:
                 ev = json.loads(data)
                 j, step, what = int(ev["id"]), int(ev["step"]), str(ev["event"])[:64]
             except (ValueError, KeyError, TypeError):
+                self.rejected += 1
+                return
+            if j != keys.id_from_key(key):
                 self.rejected += 1
                 return
             if what != "started":  # lifecycle 'started' comes from liveliness, with its step

@@ -58,7 +58,8 @@ pub enum Halt {
 }
 
 enum Msg {
-    State(Vec<u8>),
+    /// a state record and the agent id in its key (None: not a decimal id), which must be the record's
+    State(Vec<u8>, Option<u32>),
     Gone(u32),
     Ctl(String, Vec<u8>),
     Command(Vec<u8>),
@@ -94,7 +95,7 @@ impl Shared {
         }
     }
 
-    fn push_state(&self, data: Vec<u8>) {
+    fn push_state(&self, data: Vec<u8>, key_id: Option<u32>) {
         let mut inbox = self.inbox.lock().unwrap_or_else(|e| e.into_inner());
         let mut ring = inbox.wake_on_state;
         if !inbox.awaited.is_empty() {
@@ -105,7 +106,7 @@ impl Shared {
                 }
             }
         }
-        inbox.queue.push_back(Msg::State(data));
+        inbox.queue.push_back(Msg::State(data, key_id));
         if ring {
             inbox.rung = true;
             self.bell.notify_one();
@@ -180,6 +181,8 @@ pub struct Agent {
     session: Session,
     /// per watched cell: its subscriber and the declared key (a numeric id on the link, undeclared with it)
     subscribers: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
+    /// (cell, sender) -> the sender's state key in that watched cell, declared once heard (see note_sender)
+    sender_keys: HashMap<((i64, i64), u32), KeyExpr<'static>>,
     /// our current cell and its declared key (states are put on it, see declare_publisher)
     publisher: Option<((i64, i64), KeyExpr<'static>)>,
     _fixed: Vec<Subscriber<()>>,
@@ -232,6 +235,7 @@ impl Agent {
             shared: Arc::new(Shared::default()),
             session,
             subscribers: HashMap::new(),
+            sender_keys: HashMap::new(),
             publisher: None,
             _fixed: Vec::new(),
             _tokens: Vec::new(),
@@ -276,7 +280,7 @@ impl Agent {
     // ---- message handling --------------------------------------------------------------------------
     fn handle(&mut self, msg: Msg) -> Result<(), Halt> {
         match msg {
-            Msg::State(data) => self.handle_state(&data),
+            Msg::State(data, key_id) => self.handle_state(&data, key_id),
             Msg::Gone(j) => {
                 if j != self.spec.id && self.dead.insert(j) {
                     self.latest.remove(&j);
@@ -335,7 +339,7 @@ impl Agent {
         *self.counters.rejected.entry(reason.to_string()).or_insert(0) += 1;
     }
 
-    fn handle_state(&mut self, data: &[u8]) -> Result<(), Halt> {
+    fn handle_state(&mut self, data: &[u8], key_id: Option<u32>) -> Result<(), Halt> {
         let rec = match wire::decode_state(data) {
             Ok(r) => r,
             Err(reason) => {
@@ -343,10 +347,17 @@ impl Agent {
                 return Ok(());
             }
         };
+        // The router lets an agent publish only under its own id in the key (docs/security.md): a record
+        // naming another id is a forgery by the key's owner.
+        if key_id != Some(rec.id) {
+            self.reject("key");
+            return Ok(());
+        }
         let (j, step, values) = (rec.id, rec.step, rec.values);
         if j == self.spec.id {
             return Ok(());
         }
+        self.note_sender(j, values[X], values[Y]);
         if self.dead.contains(&j) {
             // A state it published while alive is genuine: an agent that finished (or died) just after
             // publishing its last steps has its liveliness DELETE delivered first (declarations travel at a
@@ -435,6 +446,12 @@ impl Agent {
         let keep: HashSet<(i64, i64)> = keys::covering_cells(x, y, self.r_keep, self.cell).into_iter().collect();
         let gone: Vec<(i64, i64)> = self.subscribers.keys().filter(|c| !keep.contains(c)).copied().collect();
         for c in gone {
+            self.sender_keys.retain(|(sc, _), key| {
+                if *sc == c {
+                    let _ = self.session.undeclare(key.clone()).wait();
+                }
+                *sc != c
+            });
             if let Some((sub, key)) = self.subscribers.remove(&c) {
                 drop(sub); // undeclares the subscription before its key
                 let _ = self.session.undeclare(key).wait();
@@ -443,17 +460,34 @@ impl Agent {
         for c in keys::covering_cells(x, y, self.r_sub, self.cell) {
             if !self.subscribers.contains_key(&c) {
                 let shared = Arc::clone(&self.shared);
-                let key = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c)).wait().map_err(zerr)?;
+                let key = self.session.declare_keyexpr(keys::cell_expr(&self.spec.run, c)).wait().map_err(zerr)?;
                 let sub = self
                     .session
                     .declare_subscriber(key.clone())
-                    .callback(move |sample| shared.push_state(sample.payload().to_bytes().into_owned()))
+                    .callback(move |sample| {
+                        let key_id = keys::id_from_key(sample.key_expr().as_str());
+                        shared.push_state(sample.payload().to_bytes().into_owned(), key_id)
+                    })
                     .wait()
                     .map_err(zerr)?;
                 self.subscribers.insert(c, (sub, key));
             }
         }
         Ok(())
+    }
+
+    /// Declare the key a neighbour publishes on in a watched cell, once: the router then sends its states
+    /// with our numeric id for that key, and zenoh dispatches them by a table look-up. Undeclared, each state
+    /// arrives with its key in full and is matched against every cell subscription (~35): 40 % of the
+    /// agents' CPU at N = 300 (docs/benchmarks/native.md). The key's cell is the record's position's cell.
+    fn note_sender(&mut self, j: u32, x: f64, y: f64) {
+        let c = keys::cell_of(x, y, self.cell);
+        if self.sender_keys.contains_key(&(c, j)) || !self.subscribers.contains_key(&c) {
+            return;
+        }
+        if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, j)).wait() {
+            self.sender_keys.insert((c, j), key);
+        }
     }
 
     // ---- publishing --------------------------------------------------------------------------------
@@ -505,7 +539,7 @@ impl Agent {
             if let Some((_, old)) = self.publisher.take() {
                 let _ = self.session.undeclare(old).wait();
             }
-            if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c)).wait() {
+            if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, self.spec.id)).wait() {
                 self.publisher = Some((c, key));
             }
         }
@@ -886,9 +920,9 @@ impl Agent {
                         return Err(Halt::Stop);
                     }
                 }
-                Some(Msg::State(data)) => {
+                Some(Msg::State(data, key_id)) => {
                     if let Ok(rec) = wire::decode_state(&data) {
-                        if rec.id != self.spec.id {
+                        if rec.id != self.spec.id && key_id == Some(rec.id) {
                             self.step = rec.step.saturating_add(1);
                             self.started = true;
                             self.buffer.clear();

@@ -7,11 +7,15 @@ pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
     ((x / cell).floor() as i64, (y / cell).floor() as i64)
 }
 
-/// One key per cell, no agent id (the record carries it): publisher and subscriber use the same exact key,
-/// which zenoh maps to a declared numeric id on both sides, so a received state is dispatched by a table
-/// lookup instead of matching its key against every cell subscription (docs/benchmarks/native.md).
-pub fn state_key(run: &str, c: (i64, i64)) -> String {
-    format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
+/// The key of agent `id`'s state in cell `c`: the id is in the key so the router's access control lets
+/// each agent publish only its own states (docs/security.md); receivers check it equals the record's id.
+pub fn state_key(run: &str, c: (i64, i64), id: u32) -> String {
+    format!("{PREFIX}/{run}/state/{}/{}/{id}", c.0, c.1)
+}
+
+/// Every agent's state in cell `c`: what an agent subscribes to for each cell it watches.
+pub fn cell_expr(run: &str, c: (i64, i64)) -> String {
+    format!("{PREFIX}/{run}/state/{}/{}/*", c.0, c.1)
 }
 
 pub fn alive_key(run: &str, id: u32) -> String {
@@ -70,7 +74,9 @@ mod tests {
 
     #[test]
     fn keys_match_the_python_ones() {
-        assert_eq!(state_key("r", (-1, 2)), "fluidswarm/r/state/-1/2");
+        assert_eq!(state_key("r", (-1, 2), 7), "fluidswarm/r/state/-1/2/7");
+        assert_eq!(cell_expr("r", (-1, 2)), "fluidswarm/r/state/-1/2/*");
+        assert_eq!(id_from_key(&state_key("r", (-1, 2), 7)), Some(7));
         assert_eq!(id_from_key("fluidswarm/r/alive/12"), Some(12));
         assert_eq!(id_from_key("fluidswarm/r/alive/x1"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/1234567890"), None);

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use fluidswarm_agent::agent::{Agent, EXIT_STOPPED, STOP};
 use fluidswarm_agent::route::CommandFollower;
-use fluidswarm_agent::session::client_config;
+use fluidswarm_agent::session::{client_config, env_credentials};
 use fluidswarm_agent::spec::{unhex, AgentSpec};
 use zenoh::Wait;
 
@@ -89,7 +89,8 @@ fn main() {
         let secret = unhex(&secret_hex).unwrap_or_else(|| fail("FLUIDSWARM_SECRET: must be hex"));
         Some(CommandFollower::new(secret, spec.id, spec.control))
     };
-    let config = client_config(&spec.connect, &spec.user, &spec.password).unwrap_or_else(|e| fail(&format!("zenoh config: {e}")));
+    let (user, password) = env_credentials();
+    let config = client_config(&spec.connect, &user, &password).unwrap_or_else(|e| fail(&format!("zenoh config: {e}")));
     let session = match zenoh::open(config).wait() {
         Ok(s) => s,
         Err(e) => {

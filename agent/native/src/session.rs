@@ -1,6 +1,17 @@
 //! Zenoh client configuration of an agent (agent/protocol/session.py: client_config, the same settings).
+//!
+//! The agent's credentials come from its environment (FLUIDSWARM_ZENOH_USER, FLUIDSWARM_ZENOH_PASSWORD, set
+//! by the launcher: agent/protocol/access.py), never from its command line, which any local user can read.
 
 use zenoh::Config;
+
+pub const USER_ENV: &str = "FLUIDSWARM_ZENOH_USER";
+pub const PASSWORD_ENV: &str = "FLUIDSWARM_ZENOH_PASSWORD";
+
+/// The credentials handed over in the environment, if any: (user, password).
+pub fn env_credentials() -> (String, String) {
+    (std::env::var(USER_ENV).unwrap_or_default(), std::env::var(PASSWORD_ENV).unwrap_or_default())
+}
 
 pub fn client_config(endpoints: &[String], user: &str, password: &str) -> Result<Config, String> {
     let mut conf = Config::default();

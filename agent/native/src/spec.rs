@@ -24,8 +24,6 @@ pub struct AgentSpec {
     pub drop_out: f64,
     pub secret: String,
     pub join: bool,
-    pub user: String,
-    pub password: String,
     pub mode: Mode,
     pub rate: f64,
     pub max_age: f64,
@@ -36,7 +34,7 @@ pub struct AgentSpec {
 
 const FIELDS: &[&str] = &[
     "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
-    "secret", "join", "user", "password", "mode", "rate", "max_age", "neighbours",
+    "secret", "join", "mode", "rate", "max_age", "neighbours",
 ];
 const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
@@ -253,8 +251,6 @@ impl AgentSpec {
             drop_out,
             secret,
             join,
-            user: string(&obj, "user")?,
-            password: string(&obj, "password")?,
             mode,
             rate: positive(&obj, "rate", 12.0)?,
             max_age: positive(&obj, "max_age", 1.0)?,

@@ -1,0 +1,263 @@
+"""Only the swarm speaks on the swarm's bus (issue 18, docs/security.md).
+
+(a) an outsider on the same host (a Zenoh client that found the router's loopback port, no credentials)
+    cannot open a session, so `verify` stays exact while it tries; with an open router the same attack
+    (republishing neighbours' states shifted by 0.3 m) breaks exactness, so the test can fail.
+(b) a rogue *agent* holding valid credentials (agent 16's) forges states under the ids of the real agents
+    and ctl/command messages: the router refuses all of them, the swarm's result is the reference's.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import zenoh
+
+from agent.launcher import Launcher, run_swarm
+from agent.protocol import keys
+from agent.protocol.access import (AGENT_CAPACITY, AuthFileError, RunKey, acl_config, read_users_file,
+                                   write_users_file)
+from agent.protocol.session import client_config
+from agent.sph.particle import X, Y
+from agent.sph.reference import PerParticleDriver
+from agent.sph.setups import spread_block
+
+FS = [sys.executable, "-m", "fluidswarm"]
+MARK = 0x7777  # the particle class the rogues stamp on their forgeries (a valid u16: the record stays well-formed)
+
+# The issue's attack: subscribe to every state and republish, for one agent in seven, a well-formed copy with
+# x shifted by 0.3 m under the same key. Keeps trying to connect until SIGTERM, then prints what it did.
+OUTSIDER = r'''
+import json, os, signal, struct, sys, threading, time, zenoh
+stop = threading.Event()
+signal.signal(signal.SIGTERM, lambda *a: stop.set())
+did = {"attempts": 0, "connected": 0, "forged": 0}
+session = None
+while not stop.is_set() and session is None:
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"client"')
+    conf.insert_json5("connect/endpoints", json.dumps([sys.argv[1]]))
+    conf.insert_json5("connect/timeout_ms", "300")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    did["attempts"] += 1
+    try:
+        session = zenoh.open(conf)
+    except Exception:
+        time.sleep(0.02)
+if session is not None:
+    did["connected"] = 1
+    def forge(sample):
+        data = bytearray(sample.payload.to_bytes())
+        if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
+            return
+        agent, = struct.unpack_from("<I", data, 4)
+        if agent % 7 == 3:
+            x, = struct.unpack_from("<d", data, 16)
+            struct.pack_into("<d", data, 16, x + 0.3)
+            struct.pack_into("<H", data, 12, 0x7777)
+            session.put(sample.key_expr, bytes(data))
+            did["forged"] += 1
+    sub = session.declare_subscriber("fluidswarm/*/state/**", forge)
+    stop.wait()
+print(json.dumps(did), flush=True)
+os._exit(0)  # without closing: the router may be gone already
+'''
+
+
+def _listening_ports(pid: int) -> list[int]:
+    """TCP ports a process listens on, as any local process can find them (/proc/net/tcp + its fds)."""
+    inodes = set()
+    try:
+        for fd in os.listdir(f"/proc/{pid}/fd"):
+            try:
+                link = os.readlink(f"/proc/{pid}/fd/{fd}")
+            except OSError:
+                continue
+            if link.startswith("socket:["):
+                inodes.add(link[8:-1])
+    except OSError:
+        return []
+    ports = []
+    with open("/proc/net/tcp") as f:
+        for line in f.read().splitlines()[1:]:
+            cols = line.split()
+            if cols[3] == "0A" and cols[9] in inodes:  # 0A: LISTEN
+                ports.append(int(cols[1].split(":")[1], 16))
+    return ports
+
+
+def _verify_with_outsider(access: str) -> tuple[float, dict]:
+    """`fluidswarm verify` (16 agents) with the outsider attacking its router; (max_position_error, rogue's tally)."""
+    env = dict(os.environ, FLUIDSWARM_ACCESS=access)
+    verify = subprocess.Popen(FS + ["verify", "--agents", "16", "--steps", "250", "--timeout", "15"], env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    rogue = None
+    try:
+        deadline = time.monotonic() + 30
+        ports: list[int] = []
+        while not ports and time.monotonic() < deadline and verify.poll() is None:
+            ports = _listening_ports(verify.pid)
+            time.sleep(0.02)
+        assert ports, "the verify process never listened on a TCP port"
+        rogue = subprocess.Popen([sys.executable, "-c", OUTSIDER, f"tcp/127.0.0.1:{ports[0]}"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        out, err = verify.communicate(timeout=120)
+    finally:
+        if verify.poll() is None:
+            verify.kill()
+        if rogue is not None:
+            rogue.send_signal(signal.SIGTERM)
+    r_out, r_err = rogue.communicate(timeout=30)
+    tally = json.loads(r_out.strip().splitlines()[-1]) if r_out.strip() else {"error": r_err[-500:]}
+    figures = dict(line.split("=", 1) for line in out.split() if "=" in line)
+    assert "max_position_error" in figures, out + err
+    return float(figures["max_position_error"]), tally
+
+
+@pytest.mark.swarm
+def test_an_outsider_without_credentials_cannot_connect_and_verify_stays_exact():
+    error, tally = _verify_with_outsider("acl")
+    print(f"with credentials: max_position_error={error:.2e}, outsider {tally}")
+    assert tally.get("attempts", 0) >= 3 and tally["connected"] == 0 and tally["forged"] == 0
+    assert error <= 1e-9
+    # The same outsider against an open router (as before issue 18) connects and breaks exactness.
+    error_open, tally_open = _verify_with_outsider("none")
+    print(f"open router: max_position_error={error_open:.2e}, outsider {tally_open}")
+    assert tally_open["connected"] == 1 and tally_open["forged"] > 0
+    assert error_open > 1e-3
+
+
+# A rogue agent process with agent 16's valid credentials (from its environment, as a real agent gets them).
+# It forges states under the real agents' ids (shifted copies of theirs, on their keys), the same forgeries
+# under its own key, and ctl/stop, ctl/end, ctl/clock, ctl/gone and command messages.
+ROGUE_AGENT = r'''
+import json, os, signal, struct, sys, threading, time, zenoh
+from agent.protocol.session import client_config
+run = sys.argv[2]
+stop = threading.Event()
+signal.signal(signal.SIGTERM, lambda *a: stop.set())
+session = zenoh.open(client_config([sys.argv[1]]))  # FLUIDSWARM_ZENOH_USER/PASSWORD: agent-16's
+did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0}
+def forge(sample):
+    data = bytearray(sample.payload.to_bytes())
+    if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
+        return
+    x, = struct.unpack_from("<d", data, 16)
+    struct.pack_into("<d", data, 16, x + 0.3)
+    struct.pack_into("<H", data, 12, 0x7777)
+    key = str(sample.key_expr)
+    session.put(key, bytes(data))  # under the real agent's id
+    did["forged_other_ids"] += 1
+    session.put(key.rsplit("/", 1)[0] + "/16", bytes(data))  # the real agent's record under our own key
+    did["forged_own_key"] += 1
+sub = session.declare_subscriber(f"fluidswarm/{run}/state/**", forge)
+print("ready", flush=True)
+while not stop.wait(0.01):
+    for what, payload in (("stop", b"stop"), ("end", struct.pack("<Q", 3)), ("clock", struct.pack("<Q", 0)),
+                          ("gone", struct.pack("<I", 5))):
+        session.put(f"fluidswarm/{run}/ctl/{what}", payload)
+        did["ctl"] += 1
+    session.put(f"fluidswarm/{run}/command", b'{"v":1}')
+    did["command"] += 1
+print(json.dumps(did), flush=True)
+os._exit(0)
+'''
+
+
+@pytest.mark.swarm
+def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_launcher():
+    setup = spread_block(16)
+    steps = 150
+    seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0}
+
+    def observe(sample):  # on the router's own session: what the router let through
+        key, data = str(sample.key_expr), sample.payload.to_bytes()
+        if "/state/" in key and len(data) == 88 and int.from_bytes(data[12:14], "little") == MARK:
+            seen["forged_own_key" if key.endswith("/16") else "forged_other_ids"] += 1
+        elif "/ctl/" in key and not key.endswith("/clock") and not key.endswith("/start"):
+            seen["ctl"] += 1
+        elif key.endswith("/command"):
+            seen["command"] += 1
+
+    with Launcher(agent_timeout=15.0) as la:
+        observer = la.session.declare_subscriber(f"{keys.PREFIX}/{la.run}/**", observe)
+        env = dict(os.environ, **la.access.env_for_agent(16))
+        rogue = subprocess.Popen([sys.executable, "-c", ROGUE_AGENT, la.endpoint, la.run], env=env,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            assert rogue.stdout.readline().strip() == "ready", rogue.stderr.read()
+            res = run_swarm(setup, steps, launcher=la)
+            time.sleep(0.3)
+            observer.undeclare()
+            seen_during_run = dict(seen)
+        finally:
+            rogue.send_signal(signal.SIGTERM)
+            r_out, r_err = rogue.communicate(timeout=30)
+    sent = json.loads(r_out.strip().splitlines()[-1])
+    rejected: dict[str, int] = {}
+    for r in res.finals.values():
+        for k, v in r.rejected.items():
+            rejected[k] = rejected.get(k, 0) + v
+    print(f"rogue sent {sent}; the router let through {seen_during_run}; agents rejected {rejected}")
+    ref = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
+    got = np.array([res.finals[i].state for i in setup.ids])
+    assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10
+    # refused by the router: none reached even its own session
+    assert seen_during_run["forged_other_ids"] == 0 and seen_during_run["ctl"] == 0 and seen_during_run["command"] == 0
+    # under its own id the router lets it speak (it may lie about itself), and the agents see the record
+    # names someone else
+    assert seen_during_run["forged_own_key"] > 0 and rejected.get("key", 0) > 0
+    assert all(r.status == "done" for r in res.finals.values()) and len(res.finals) == 16
+    assert np.abs(got[:, [X, Y]] - ref[:, [X, Y]]).max() <= 1e-9
+
+
+@pytest.mark.swarm
+def test_a_client_with_wrong_credentials_or_none_cannot_open_a_session():
+    with Launcher() as la:
+        good = la.access.env_for("recorder")
+        for user, password in (("", ""), ("recorder", "0" * 32), ("agent-99999", good["FLUIDSWARM_ZENOH_PASSWORD"])):
+            conf = client_config([la.endpoint], user or "nobody", password or "nothing-at-all")
+            if not user:
+                conf = zenoh.Config()
+                conf.insert_json5("mode", '"client"')
+                conf.insert_json5("connect/endpoints", json.dumps([la.endpoint]))
+                conf.insert_json5("scouting/multicast/enabled", "false")
+            conf.insert_json5("connect/timeout_ms", "1000")
+            with pytest.raises(zenoh.ZError):
+                zenoh.open(conf)
+        # and the right ones do (the same code path the recorder takes)
+        s = zenoh.open(client_config([la.endpoint], good["FLUIDSWARM_ZENOH_USER"], good["FLUIDSWARM_ZENOH_PASSWORD"]))
+        s.close()
+
+
+def test_users_file_errors_are_one_line_naming_the_line(tmp_path):
+    f = tmp_path / "users.txt"
+    cases = {
+        "swarm s3cret-password\n": "line 1: expected user:password",
+        "# comment\nbob:s3cret-password\n": "line 2: user 'bob' is not a role",
+        "agent-1:short\n": "line 1: the password must be 8-128",
+        "agent-1:a-long-enough-pw\nagent-1:a-long-enough-pw\n": "line 2: user 'agent-1' listed twice",
+        "\n# nothing\n": "no user:password line",
+    }
+    for text, message in cases.items():
+        f.write_text(text)
+        with pytest.raises(AuthFileError, match=message) as exc:
+            read_users_file(str(f))
+        assert "\n" not in str(exc.value)
+    out = tmp_path / "new.txt"
+    key = RunKey()
+    write_users_file(str(out), key.users(4))
+    assert oct(out.stat().st_mode & 0o777) == "0o600"
+    assert [c.user for c in read_users_file(str(out))][-1] == "agent-3"
+    # per-agent rules: agent i may put only its own keys
+    acl = acl_config(["agent-3", "recorder"])
+    rule = next(r for r in acl["rules"] if r["id"] == "agent-3")
+    assert all(k.endswith("/3") for k in rule["key_exprs"]) and acl["default_permission"] == "deny"
+    assert AGENT_CAPACITY >= 1000
