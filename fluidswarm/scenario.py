@@ -166,6 +166,10 @@ def load_scenario(path: str | Path) -> Scenario:
         SPHParams(**{k: (tuple(v) if k == "domain" else v) for k, v in sph.items()})
     except (ValueError, TypeError) as exc:
         raise UserError(f"{file}: key 'sph': {exc}") from None
+    for key in ("beta", "mu"):  # an accepted key must act: in an imitation the gesture command sets them
+        if key in sph and kw.get("experiment", "imitate") == "imitate":
+            raise UserError(f"{file}: key 'sph.{key}': an imitation's stiffness and viscosity are set per class "
+                            f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)")
     kw["sph"] = sph
     failures = []
     raw_f = raw.get("failures", [])

@@ -6,9 +6,11 @@ import sys
 import numpy as np
 import pytest
 
-from agent.sph.particle import Y
+from agent.protocol.errors import UserError
+from agent.sph.particle import P, SXX, Y
 from agent.sph.reference import VectorisedDriver
-from agent.sph.setups import branch_gap, branching
+from agent.sph.setups import branch_gap, branching, drag
+from fluidswarm.scenario import load_scenario
 
 STEPS = 800
 
@@ -40,6 +42,42 @@ def test_beta_50_spreads_the_flow_in_y_more_than_beta_2():
     spread = [np.std(final_of(s)[:, Y]) for s in (stiff, soft)]
     print(f"y std beta50={spread[0]:.2f} beta2={spread[1]:.2f}")
     assert spread[0] > 1.3 * spread[1]
+
+
+def _with_scenario_sph(make, text: str, tmp_path):
+    """The experiment's set-up with a scenario's [sph] table applied, as `fluidswarm run` builds it."""
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    sc = load_scenario(path)
+    return make(sc.agents, params=make(sc.agents).params.with_overrides(sc.sph, sc.dt))
+
+
+def test_scenario_sph_beta_50_changes_the_pressure(tmp_path):
+    head = 'experiment = "branching"\nagents = 40\nsteps = 1\n'
+    plain = _with_scenario_sph(branching, head, tmp_path)
+    stiff = _with_scenario_sph(branching, head + "[sph]\nbeta = 50\n", tmp_path)
+    edge = plain.classes != 1  # the middle band keeps its own beta (20)
+    p_plain = VectorisedDriver(plain.ids, plain.states, plain.controls, plain.params).run(1)[:, P]
+    p_stiff = VectorisedDriver(stiff.ids, stiff.states, stiff.controls, stiff.params).run(1)[:, P]
+    assert np.abs(p_plain[edge]).max() > 0
+    assert np.allclose(p_stiff[edge], 25.0 * p_plain[edge])  # Tait: p = beta ((rho/rho0)^7 - 1), 50 / 2
+    assert np.allclose(p_stiff[~edge], p_plain[~edge])
+
+
+def test_scenario_sph_mu_changes_the_viscous_stress(tmp_path):
+    head = 'experiment = "drag"\nagents = 25\nsteps = 1\n'
+    plain = _with_scenario_sph(drag, head, tmp_path)
+    thick = _with_scenario_sph(drag, head + "[sph]\nmu = 6\n", tmp_path)
+    s_plain = VectorisedDriver(plain.ids, plain.states, plain.controls, plain.params).run(2)[:, SXX]
+    s_thick = VectorisedDriver(thick.ids, thick.states, thick.controls, thick.params).run(2)[:, SXX]
+    assert np.abs(s_plain).max() > 0 and np.allclose(s_thick, 3.0 * s_plain)  # s = mu eps, mu 6 / 2
+
+
+def test_scenario_sph_beta_of_an_imitation_is_refused_by_name(tmp_path):
+    path = tmp_path / "i.toml"
+    path.write_text('input = "x.png"\n[sph]\nbeta = 50\n')
+    with pytest.raises(UserError, match=r"i.toml: key 'sph.beta': an imitation's stiffness"):
+        load_scenario(path)
 
 
 @pytest.mark.swarm

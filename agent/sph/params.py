@@ -24,9 +24,12 @@ class SPHParams:
     rho0     reference density [kg/m^2] of the Tait equation of state (eq. 3.13): 0.85, below the
              density of a unit-spaced lattice (0.98), so a packed swarm is slightly compressed and spreads.
     gamma    Tait exponent (thesis: "around 7").
-    beta     default stiffness [N/m] of eq. 3.13 (thesis: 2 normal, 20 arms, 50 fingers/cylindrical).
+    beta     the fluid's stiffness [N/m] of eq. 3.13 (thesis: 2 normal, 20 arms, 50 fingers/cylindrical):
+             every particle's unless its controller sets another (Control.beta; the branching
+             experiment's edges, the drag experiment's fluid). A scenario's [sph] beta sets it.
     beta_pi  coefficient of the artificial viscosity (eq. 3.9) [dimensionless].
-    mu       default dynamic viscosity [kg/s] of the viscous stress term (eq. 3.7-3.8, 3.11).
+    mu       the fluid's dynamic viscosity [kg/s] of the viscous stress term (eq. 3.7-3.8, 3.11), likewise
+             the default of Control.mu. In an imitation the gesture command sets both per class.
     kappa    support radius in units of h (W = 0 beyond kappa*h, eq. 3.3).
     dt       time step [s] of the symplectic Euler integrator.
     v_max    speed limit [m/s]: a robot's top speed; it also bounds a particle's displacement per step

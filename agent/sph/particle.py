@@ -44,8 +44,9 @@ class Control:
 
     wx, wy [m] waypoint; r [m] radius with no force; s [m] spread over which the force ramps up;
     alpha [1/s^2] gain (eq. 6.2). alpha = 0 means no body force. beta [N/m] stiffness, mu [kg/s]
-    viscosity for this particle. push (fx, fy) [m/s^2] a constant extra body force (thesis §4.7 drag
-    experiment, where one particle is pushed).
+    viscosity for this particle; their defaults are the fluid's (SPHParams.beta, .mu), written once there.
+    push (fx, fy) [m/s^2] a constant extra body force (thesis §4.7 drag experiment, where one particle is
+    pushed).
     """
 
     wx: float = 0.0
@@ -53,8 +54,8 @@ class Control:
     r: float = 0.0
     s: float = 0.0
     alpha: float = 0.0
-    beta: float = 2.0
-    mu: float = 0.0
+    beta: float = SPHParams.beta
+    mu: float = SPHParams.mu
     push_x: float = 0.0
     push_y: float = 0.0
 

@@ -32,7 +32,7 @@ def lattice(n: int, columns: int, spacing: float = 1.0, origin: tuple[float, flo
     return np.stack([origin[0] + spacing * (k % columns), origin[1] + spacing * (k // columns)], axis=1).astype(float)
 
 
-def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float = 2.0, rows: int = 10,
+def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float | None = None, rows: int = 10,
               speed: float = 1.0, params: SPHParams | None = None) -> Setup:
     """Stiffness-only branching (thesis §4.6): a block moving along +x, middle band stiffer than edges.
 
@@ -41,8 +41,10 @@ def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float = 2.0, r
     `speed`), with no waypoint. We found that a *stiffer middle* (beta_middle = 20 > beta_edge = 2, as
     the thesis' text and ch. 6 say, not the printed beta_middle = 2) splits the block: the middle band's
     pressure pushes the two edge bands apart into two branches (tests/test_physics_experiments.py).
+    The edges are the fluid itself: beta_edge defaults to params.beta (2).
     """
     params = params or SPHParams(drag=0.5, domain=(-20.0, 100.0, -40.0, 50.0))
+    beta_edge = params.beta if beta_edge is None else beta_edge
     columns = max(1, int(np.ceil(n / rows)))
     pos = lattice(n, columns)
     row = (np.arange(n) // columns)
@@ -88,12 +90,13 @@ def spread_block(n: int = 64, spacing: float = 1.0, params: SPHParams | None = N
 
 
 def drag(n: int = 49, mu: float = 2.0, push: float = 1.0, params: SPHParams | None = None) -> Setup:
-    """Viscosity drag (thesis §4.7): a square block at rest; only its centre particle is pushed along +x."""
+    """Viscosity drag (thesis §4.7): a square block at rest; only its centre particle is pushed along +x.
+    Every particle has the fluid's viscosity and stiffness: params.mu and params.beta (`mu` when no params)."""
     params = params or SPHParams(mu=mu, domain=(-50.0, 80.0, -50.0, 80.0), border="reflect")
     columns = max(1, int(round(np.sqrt(n))))
     pos = lattice(n, columns)
     centre = int(np.argmin(np.hypot(pos[:, 0] - pos[:, 0].mean(), pos[:, 1] - pos[:, 1].mean())))
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
-    controls = [Control(mu=mu, beta=2.0, push_x=push if k == centre else 0.0) for k in range(n)]
+    controls = [Control(mu=params.mu, beta=params.beta, push_x=push if k == centre else 0.0) for k in range(n)]
     classes = np.where(np.arange(n) == centre, 1, 0)
     return Setup(np.arange(n), states, controls, classes, ("fluid", "pushed"), params)
