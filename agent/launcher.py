@@ -32,7 +32,8 @@ from agent.executable import agent_executable
 from agent.initial_neighbours import initial_neighbours
 from agent.protocol.access import LaunchAccess
 from agent.protocol.session import router_config
-from agent.protocol.spec import AgentSpec
+from agent.protocol.report import FinalReport, decode_report
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
 from agent.sph.particle import Control
 from agent.protocol.wire import STATE_SIZE
 
@@ -52,7 +53,7 @@ REPORTED = (0, 3, 4)
 AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
+def die_with_parent() -> None:  # runs in the child between fork and exec
     try:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
     except OSError:
@@ -68,7 +69,7 @@ def free_port() -> int:
 @dataclass
 class SwarmResult:
     ids: list[int]
-    finals: dict[int, dict]  # agent id -> its final report
+    finals: dict[int, FinalReport]  # agent id -> its final report
     events: list[dict]
     exit_codes: dict[int, int | None]
     wall_seconds: float
@@ -76,22 +77,22 @@ class SwarmResult:
     steps: int
 
     def final_states(self) -> dict[int, np.ndarray]:
-        return {i: np.array(r["state"]) for i, r in self.finals.items()}
+        return {i: np.array(r.state) for i, r in self.finals.items()}
 
     def steps_per_second(self) -> float:
-        starts = [r["t_start"] for r in self.finals.values() if r.get("t_start")]
-        ends = [r["t_end"] for r in self.finals.values() if r.get("t_end")]
+        starts = [r.t_start for r in self.finals.values() if r.t_start]
+        ends = [r.t_end for r in self.finals.values() if r.t_end]
         if not starts or not ends:
             return 0.0
         return self.steps / max(max(ends) - min(starts), 1e-9)
 
     def msgs_per_agent_step(self) -> float:
-        rs = [r for r in self.finals.values() if r.get("steps")]
-        return float(np.mean([r["msgs_received"] / r["steps"] for r in rs])) if rs else 0.0
+        rs = [r for r in self.finals.values() if r.steps]
+        return float(np.mean([r.msgs_received / r.steps for r in rs])) if rs else 0.0
 
     def neighbours_per_agent(self) -> float:
-        rs = [r for r in self.finals.values() if r.get("steps")]
-        return float(np.mean([r["neighbours"] / r["steps"] for r in rs])) if rs else 0.0
+        rs = [r for r in self.finals.values() if r.steps]
+        return float(np.mean([r.neighbours / r.steps for r in rs])) if rs else 0.0
 
 
 @dataclass
@@ -102,7 +103,7 @@ class Swarm:
     endpoint: str
     session: zenoh.Session
     procs: dict[int, subprocess.Popen] = field(default_factory=dict)
-    finals: dict[int, dict] = field(default_factory=dict)
+    finals: dict[int, FinalReport] = field(default_factory=dict)
     events: list[dict] = field(default_factory=list)
     alive: set[int] = field(default_factory=set)
     gone: list[int] = field(default_factory=list)  # lost agents not yet relayed on ctl/gone
@@ -117,7 +118,7 @@ class Launcher:
     """Owns an embedded router (or a connection to one) and the agent processes of one run."""
 
     def __init__(self, run: str | None = None, connect: str | None = None, listen: str | None = None,
-                 secret: str | None = None, agent_timeout: float = 2.0, quiet: bool = True,
+                 secret: str | None = None, agent_timeout: float = NEIGHBOUR_TIMEOUT.default, quiet: bool = True,
                  user: str = "", password: str = "", auth_file: str = "", commands: bool = False):
         self.run = run or f"run-{uuid.uuid4().hex[:8]}"
         if not keys.valid_run_name(self.run):
@@ -249,13 +250,11 @@ class Launcher:
 
     # callbacks: tiny, under the lock
     def _on_final(self, sample) -> None:
-        try:
-            msg = json.loads(sample.payload.to_bytes())
-            agent_id = int(msg["id"])
-        except (ValueError, KeyError, TypeError):
-            return
+        report = decode_report(sample.payload.to_bytes())
+        if report is None or report.id != keys.id_from_key(str(sample.key_expr)):
+            return  # untrusted: a malformed report, or one under another agent's key, counts as none
         with self.swarm.changed:
-            self.swarm.finals[agent_id] = msg
+            self.swarm.finals[report.id] = report
             self.swarm.changed.notify_all()
 
     def _on_event(self, sample) -> None:
@@ -298,7 +297,7 @@ class Launcher:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
-        self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent,
+        self.recorder = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=die_with_parent,
                                          env=dict(os.environ, **self.access.env_for("recorder")))
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"

@@ -34,11 +34,18 @@ def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: in
 
 def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | None = None):
     """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
-    from coordinator.control.imitation_setup import build_command, observations_for, transform_for
+    from coordinator.control.imitation_setup import observations_for, transform_for
 
     _frames, obs, k = observations_for(path, frame)
     shown = [obs[k]] if frame is not None else obs
-    transform = transform_for(shown[0].mask, n_agents, controller)
+    return commands_along(shown, transform_for(shown[0].mask, n_agents, controller), n_agents, controller)
+
+
+def commands_along(shown, transform, n_agents: int, controller: str = "fill"):
+    """[(index of the first observation it holds for, command)]: a new command whenever the recognised
+    gesture changes between consecutive observations `shown`, all in one image -> domain `transform`."""
+    from coordinator.control.imitation_setup import build_command
+
     out = []
     last = None
     for i, o in enumerate(shown):
@@ -71,6 +78,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--connect", required=True)
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", help="image, folder of frames, or video")
+    ap.add_argument("--commands", help="JSON file [{\"first\": FRAME, \"body\": COMMAND BODY}, ...]: commands "
+                                       "built by the launching process from its own observation (no second perception)")
     ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
     ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
     ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
@@ -98,8 +107,8 @@ def main(argv: list[str] | None = None) -> int:
         print("fluidswarm coordinator: error: bad --run, --agents, --period, --frame-steps or --frame-seconds",
               file=sys.stderr)
         return 2
-    if bool(args.input) == bool(args.camera):
-        print("fluidswarm coordinator: error: give --input or --camera (one of them)", file=sys.stderr)
+    if sum(bool(a) for a in (args.input, args.camera, args.commands)) != 1:
+        print("fluidswarm coordinator: error: give --input, --camera or --commands (one of them)", file=sys.stderr)
         return 2
     if args.camera:
         return _camera(args, secret)
@@ -107,9 +116,13 @@ def main(argv: list[str] | None = None) -> int:
     from perception.segmentation import SegmentationError
 
     try:
-        commands = frame_commands(args.input, args.agents, args.controller, args.frame)
+        commands = (_load_commands(args.commands) if args.commands
+                    else frame_commands(args.input, args.agents, args.controller, args.frame))
     except (InputError, SegmentationError) as exc:
         print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
+        return 1
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        print(f"fluidswarm coordinator: error: --commands {args.commands}: {exc}", file=sys.stderr)
         return 1
     stop = _stop_on_signals()
     session = zenoh.open(client_config([args.connect], args.user, args.password))
@@ -133,6 +146,27 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         session.close()
     return 0
+
+
+def write_commands(path, commands) -> None:
+    """[(first frame, GestureCommand)] as the JSON file `--commands` reads."""
+    import json
+
+    with open(path, "w") as f:
+        json.dump([{"first": int(first), "body": c.body()} for first, c in commands], f)
+
+
+def _load_commands(path):
+    """The file `write_commands` wrote, each body validated as the agents validate a command."""
+    import json
+
+    from agent.protocol.command import parse_body
+
+    with open(path) as f:
+        items = json.load(f)
+    if not isinstance(items, list) or not items or items[0]["first"] != 0:
+        raise ValueError("expected a non-empty list whose first command holds from frame 0")
+    return [(int(item["first"]), parse_body(item["body"])) for item in items]
 
 
 def _stop_on_signals() -> threading.Event:

@@ -52,25 +52,26 @@ def machine() -> dict:
 def lockstep(n: int, steps: int) -> dict:
     import resource
 
-    from agent.launcher import Launcher, run_swarm
+    from agent.protocol.spec import NEIGHBOUR_TIMEOUT
     from agent.sph.reference import PerParticleDriver, VectorisedDriver
-    from agent.sph.setups import spread_block
+    from fluidswarm.block import Block
+    from fluidswarm.run import Run, RunOptions
 
-    setup = spread_block(n)
+    # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
+    # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),
+    # not after run_swarm's default of 0.004 s x N per step (14 min at N = 1000).
+    kind = Block(n, steps, startup_timeout=60.0 + 0.12 * n, run_timeout=120.0 + 0.5 * steps, kind="bench")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with Launcher(agent_timeout=10.0) as launcher:
-        # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
-        # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),
-        # not after run_swarm's default of 0.004 s x N per step (14 min at N = 1000).
-        res = run_swarm(setup, steps, launcher=launcher, startup_timeout=60.0 + 0.12 * n,
-                        run_timeout=120.0 + 0.5 * steps)
+    with Run(kind, RunOptions(f"bench_{n}", None, NEIGHBOUR_TIMEOUT.benchmark)) as run:
+        kind.drive(run)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    done = [r for r in res.finals.values() if r.get("status") == "done"]
-    sps = res.steps_per_second()
-    rss = [r.get("rss_mb", 0.0) for r in res.finals.values()]  # each agent's own peak (VmHWM)
+    res, setup = run.record, kind.setup
+    done = [r for r in res.finals.values() if r.done]
+    sps = res.steps_per_second
+    rss = [r.rss_mb for r in res.finals.values()]  # each agent's own peak (VmHWM)
     # CPU of the stepping alone (start-up, imports and session opening excluded), per agent and step.
-    stepping = [(r["cpu_seconds"] - r["cpu_seconds_at_start"]) / r["steps"] for r in done
-                if r.get("cpu_seconds_at_start") is not None and r.get("steps")]
+    stepping = [(r.cpu_seconds - r.cpu_seconds_at_start) / r.steps for r in done
+                if r.cpu_seconds_at_start is not None and r.steps]
 
     central_steps = min(steps, 60)
     t = time.perf_counter()
@@ -84,8 +85,8 @@ def lockstep(n: int, steps: int) -> dict:
         "steps_per_second": round(sps, 3),
         "wall_seconds": round(steps / sps, 3) if sps else None,
         "startup_seconds": round(res.startup_seconds, 3),
-        "msgs_per_agent_step": round(res.msgs_per_agent_step(), 3),
-        "neighbours_per_agent": round(res.neighbours_per_agent(), 3),
+        "msgs_per_agent_step": round(res.msgs_per_agent_step, 3),
+        "neighbours_per_agent": round(res.neighbours_per_agent, 3),
         "cpu_seconds": round((after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), 2),
         "cpu_ms_per_agent_step": round(1000 * float(np.mean(stepping)), 3) if stepping else None,
         "cpu_us_per_agent_step": round(1e6 * float(np.mean(stepping)), 1) if stepping else None,
@@ -126,19 +127,17 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict]
             out[gesture] = fid[gesture] = formed[gesture] = None
             continue
         cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents),
-               "--out", f"out/bench/{gesture}"]
+               "--out", f"out/bench/{gesture}", "--json"]
         if steps:
             cmd += ["--steps", str(steps)]
         print(f"gesture {gesture}: {agents} agents ...", file=sys.stderr, flush=True)
         t = time.perf_counter()
         r = subprocess.run(cmd, capture_output=True, text=True)
         out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
-        iou = [ln.split("=", 1)[1].split()[0] for ln in r.stdout.splitlines() if ln.startswith("fidelity_iou=")]
-        fid[gesture] = float(iou[-1]) if iou else None
-        figures = dict(ln.split("=", 1) for ln in r.stdout.splitlines() if ln.startswith("formation_"))
-        formed[gesture] = ({"seconds": float(figures["formation_seconds"]),
-                            "settled": figures.get("formation_settled") == "true"}
-                           if "formation_seconds" in figures else None)
+        record = json.loads(r.stdout) if r.returncode == 0 else None
+        fid[gesture] = record["fidelity"]["iou"] if record else None
+        formed[gesture] = ({"seconds": record["formation_seconds"], "settled": record["formation_settled"]}
+                           if record else None)
     return out, fid, formed
 
 

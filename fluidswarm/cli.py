@@ -17,9 +17,9 @@ from agent.protocol.errors import UserError
 # Modules that contribute subcommands, in the order they appear in `--help`.
 COMMAND_MODULES = (
     "fluidswarm.simulate",
-    "agent.commands",
+    "fluidswarm.swarm_commands",
     "perception.commands",
-    "coordinator.commands",
+    "fluidswarm.imitate_commands",
     "fluidswarm.recording.commands",
     "fluidswarm.scenario_commands",
     "fluidswarm.bench",

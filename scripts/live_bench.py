@@ -73,7 +73,8 @@ def viewer(url: str, reads: bool, seen: list, stop: threading.Event) -> None:
 
 def one_run(n: int, steps: int, mode: str, tmp: Path) -> dict:
     mcap = tmp / f"{mode}-{time.monotonic_ns()}.mcap"
-    cmd = [sys.executable, "-m", "fluidswarm", "launch", "-n", str(n), "--steps", str(steps), "--record", str(mcap)]
+    cmd = [sys.executable, "-m", "fluidswarm", "launch", "-n", str(n), "--steps", str(steps), "--record", str(mcap),
+           "--json"]
     stop, seen, thread = threading.Event(), [], None
     if mode != "without":
         port = free_port()
@@ -90,7 +91,7 @@ def one_run(n: int, steps: int, mode: str, tmp: Path) -> dict:
             thread.join(10)
     if res.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed: {res.stderr.strip()}")
-    sps = float(next(line for line in res.stdout.splitlines() if line.startswith("steps_per_second=")).split("=")[1])
+    sps = json.loads(res.stdout)["steps_per_second"]
     complete, recorded, missing = check(mcap)
     mcap.unlink()
     return {"steps_per_second": sps, "complete": complete and missing == 0, "recorded": recorded,

@@ -18,6 +18,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
+from agent.protocol.report import Status
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
@@ -33,31 +34,33 @@ def reference(setup, steps):
 
 
 def positions(res, ids):
-    return np.array([res.finals[i]["state"] for i in ids])[:, [X, Y]]
+    return np.array([res.finals[i].state for i in ids])[:, [X, Y]]
+
+
+def record_of(*args: str):
+    """`fluidswarm ARGS --json`: its whole stdout is one JSON object, the run's record."""
+    r = subprocess.run([sys.executable, "-m", "fluidswarm", *args, "--json"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    record = json.loads(r.stdout)
+    print(record)
+    return record
 
 
 def test_verify_command_is_exact_and_local():
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "verify", "--agents", "36", "--steps", "120"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
-    figures = dict(line.split("=", 1) for line in r.stdout.split())
-    print(figures)
-    assert float(figures["max_position_error"]) <= 1e-9
-    assert float(figures["msgs_per_agent_step"]) <= 3 * float(figures["neighbours_per_agent"])
-    assert float(figures["neighbours_per_agent"]) > 4
-    assert float(figures["steps_per_second"]) > 0
+    record = record_of("verify", "--agents", "36", "--steps", "120")
+    assert record["kind"] == "verify" and record["passed"] and record["finished"] == 36
+    assert record["figures"]["max_position_error"] <= 1e-9
+    assert record["msgs_per_agent_step"] <= 3 * record["neighbours_per_agent"]
+    assert record["neighbours_per_agent"] > 4
+    assert record["steps_per_second"] > 0
 
 
 def test_launch_with_default_options_every_agent_finishes_without_republishing_storms():
     # Issue 14 (c): `launch -n 300 --steps 60` with its defaults finished 91/300 agents with the Python agent
     # (republishing storms: 91 messages per agent-step for 6 neighbours). The same mechanism at CI size.
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "launch", "-n", "100", "--steps", "60"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stdout + r.stderr
-    figures = dict(line.split("=", 1) for line in r.stdout.split() if "=" in line)
-    print(figures)
-    assert figures["finished"] == "100"
-    assert float(figures["msgs_per_agent_step"]) <= 3 * float(figures["neighbours_per_agent"])
+    record = record_of("launch", "-n", "100", "--steps", "60")
+    assert record["finished"] == 100 and record["sync"] == "lockstep"
+    assert record["msgs_per_agent_step"] <= 3 * record["neighbours_per_agent"]
 
 
 def rate(step_times, a, b):
@@ -82,13 +85,13 @@ def test_sigkill_20_percent_at_step_100_the_rest_complete_and_recover():
         res = run_swarm(setup, steps, launcher=launcher, on_started=kill_at_step)
         times = dict(launcher.step_times)
     survivors = [i for i in setup.ids if i not in victims]
-    assert all(res.finals[i]["status"] == "done" and res.finals[i]["steps"] == steps for i in survivors)
+    assert all(res.finals[i].done and res.finals[i].steps == steps for i in survivors)
     assert not any(v in res.finals for v in victims)
     before = rate(times, 50, kill_at)
     after = rate(times, kill_at + 10, kill_at + 60)
     print(f"steps/s before kill={before:.1f} after={after:.1f}")
     assert after >= before / 2
-    assert sum(res.finals[i]["deaths_seen"] for i in survivors) > 0
+    assert sum(res.finals[i].deaths_seen for i in survivors) > 0
 
 
 def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
@@ -111,7 +114,7 @@ def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
         times = [launcher.step_times[s] for s in sorted(launcher.step_times) if s <= steps]
         code = launcher.swarm.procs[frozen].wait(10)
     others = [i for i in setup.ids if i != frozen]
-    assert all(res.finals[i]["steps"] == steps for i in others)
+    assert all(res.finals[i].steps == steps for i in others)
     longest_stall = max(np.diff(times))
     print(f"longest stall between steps: {longest_stall:.2f} s; frozen agent exit code {code}")
     assert longest_stall < timeout + 1.5
@@ -119,8 +122,8 @@ def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
     # neighbour states Zenoh queued for it (it then finishes every step), or, if they were not
     # delivered, finds the swarm ahead and exits cleanly with code 3.
     report = res.finals[frozen]
-    assert (code == 0 and report["status"] == "done" and report["steps"] == steps) or \
-        (code == 3 and report["status"] == "fell_behind")
+    assert (code == 0 and report.done and report.steps == steps) or \
+        (code == 3 and report.status is Status.FELL_BEHIND)
 
 
 def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
@@ -163,10 +166,10 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
         stop.set()
     rejected = {}
     for r in res.finals.values():
-        for k, v in r["rejected"].items():
+        for k, v in r.rejected.items():
             rejected[k] = rejected.get(k, 0) + v
     print(f"rogue sent {sent['n']}, rejected {rejected}")
-    assert sum(r["timeouts"] for r in res.finals.values()) == 0
+    assert sum(r.timeouts for r in res.finals.values()) == 0
     assert sent["n"] > 0
     assert rejected.get("length", 0) > 0 and rejected.get("version", 0) > 0
     assert rejected.get("value", 0) > 0 and rejected.get("step", 0) > 0

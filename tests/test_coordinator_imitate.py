@@ -4,6 +4,7 @@ wave with the arms sideways gives arm-class particles on both sides of the torso
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -24,17 +25,19 @@ WAVE2_SIDEWAYS = 14  # perception/data/weizmann_wave2_labels.json: person0 frame
 
 def imitate(path: Path, out: Path, agents: int, steps: int, *extra: str):
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(path), "--agents", str(agents), "--steps",
-                        str(steps), "--out", str(out), *extra], capture_output=True, text=True, timeout=300, cwd=REPO)
+                        str(steps), "--out", str(out), "--json", *extra], capture_output=True, text=True, timeout=300,
+                       cwd=REPO)
     assert r.returncode == 0, r.stderr[-3000:]
-    figures = dict(line.split("=", 1) for line in r.stdout.split() if "=" in line)
-    run = load_run(figures["mcap"], images=False)
+    record = json.loads(r.stdout)  # the whole of stdout: one JSON object
+    assert record["kind"] == "imitation" and record["finished"] == agents
+    run = load_run(record["mcap"], images=False)
     last = run.frames[-1]
     assert len(last.ids) == agents
-    # The file keeps its own score (metadata `fidelity`): the same figures the command printed.
-    for key in ("fidelity_iou", "nn_cv"):
-        assert abs(run.fidelity[key] - float(figures[key])) <= 1e-4, (key, run.fidelity, figures[key])
+    # The file keeps its own score (metadata `fidelity`): the same figures the command gave.
+    for key, field in (("fidelity_iou", "iou"), ("nn_cv", "nn_cv")):
+        assert abs(run.fidelity[key] - record["fidelity"][field]) <= 1e-4, (key, run.fidelity, record["fidelity"])
     order = np.argsort(last.ids)
-    return last.ids[order], last.positions[order], figures
+    return last.ids[order], last.positions[order], record["fidelity"]
 
 
 def branches(positions: np.ndarray, split_y: float, gap: float = 1.5) -> tuple[int, float]:
@@ -61,12 +64,12 @@ def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path, share
     top1 = im1.transform.to_domain(np.array([0.0, rows1.min() + 0.3 * (rows1.max() - rows1.min())]))[1]
     n1, _gap1 = branches(pos1, top1)
     extent = np.ptp(pos1, axis=0)
-    print(f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['fidelity_iou']}; "
+    print(f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['iou']}; "
           f"one finger: {n1} branch above y={top1:.1f} m, extent x {extent[0]:.1f} m, y {extent[1]:.1f} m, "
-          f"iou {fig1['fidelity_iou']}")
+          f"iou {fig1['iou']}")
     assert n2 == 2 and gap2 > 1.5
     assert n1 == 1 and extent[1] > 1.5 * extent[0]  # one elongated (upright) branch over the palm
-    assert float(fig2["fidelity_iou"]) >= 0.7 and float(fig1["fidelity_iou"]) >= 0.7
+    assert fig2["iou"] >= 0.7 and fig1["iou"] >= 0.7
 
 
 def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(tmp_path):
@@ -84,10 +87,10 @@ def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(tmp_path):
     t_lo, t_hi = np.percentile(torso[:, 0], [10, 90])
     ty = np.median(torso[:, 1])
     print(f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; right arm x {np.round(right[:, 0], 1)}; "
-          f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['fidelity_iou']}")
+          f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['iou']}")
     assert np.all(left[:, 0] < t_lo) and np.all(right[:, 0] > t_hi)
     # sideways: the arms reach out at least as far as the torso is wide, above the torso's middle
     width = t_hi - t_lo
     assert t_lo - left[:, 0].min() > 0.5 * width and right[:, 0].max() - t_hi > 0.5 * width
     assert np.median(left[:, 1]) > ty and np.median(right[:, 1]) > ty
-    assert float(fig["fidelity_iou"]) >= 0.45
+    assert fig["iou"] >= 0.45

@@ -91,10 +91,10 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
             stop.set()
             t.join(10)
     ref = PerParticleDriver(im.setup.ids, im.setup.states, followers_for(im.command, im.setup.ids), im.setup.params).run(steps)
-    got = np.array([res.finals[i]["state"] for i in im.setup.ids])
+    got = np.array([res.finals[i].state for i in im.setup.ids])
     rejected = {}
     for r in res.finals.values():
-        for k, v in r["rejected"].items():
+        for k, v in r.rejected.items():
             rejected[k] = rejected.get(k, 0) + v
     print(f"rogue sent {counts['sent']}; rejected {rejected}")
     assert counts["sent"] >= 1000

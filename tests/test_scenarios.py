@@ -1,11 +1,12 @@
 """Scenario files and `fluidswarm run`: every small scenario runs end to end through real agent processes,
 a real coordinator and recorder, and meets its own pass criteria; the robustness criteria of issue 7 are
-asserted on the figures `run` prints; bad scenario files and options give one-line errors.
+asserted on the record `run --json` prints; bad scenario files and options give one-line errors.
 
 The 300-particle scenario (hand_scissor_300) is left to the benchmark (`fluidswarm bench`)."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -20,17 +21,15 @@ CI_MAX_AGENTS = 60
 FS = [sys.executable, "-m", "fluidswarm"]
 
 
-def figures(stdout: str) -> dict[str, str]:
-    out = {}
-    for line in stdout.splitlines():
-        if "=" in line and not line.startswith(" "):
-            k, _, v = line.partition("=")
-            out[k.strip()] = v.split()[0] if v.split() else ""
-    return out
-
-
 def run_cli(args, timeout=900):
     return subprocess.run(FS + args, cwd=REPO, capture_output=True, text=True, timeout=timeout, stdin=subprocess.DEVNULL)
+
+
+def run_record(args, timeout=900):
+    """`fluidswarm ARGS --json`: the process and the run's record (its whole stdout is one JSON object)."""
+    r = run_cli(args + ["--json"], timeout)
+    assert r.stdout.strip(), f"rc {r.returncode}, no record\n{r.stderr[-3000:]}"
+    return r, json.loads(r.stdout)
 
 
 def test_every_scenario_file_loads_and_ships_its_input():
@@ -89,18 +88,18 @@ def test_bad_run_option_is_one_line(tmp_path, opts, problem):
 
 # Per scenario, what `run` must print beyond its own pass criteria (issue 7's robustness acceptance).
 EXTRA_CHECKS = {
-    "hand_failures_kill20": lambda f: float(f["fidelity_ratio"]) >= 0.8 and f["mcap_complete"] == "true",
-    "hand_failures_kill20_async": lambda f: float(f["fidelity_ratio"]) >= 0.8 and f["mcap_complete"] == "true",
+    "hand_failures_kill20": lambda r: r["figures"]["fidelity_ratio"] >= 0.8 and r["figures"]["mcap_complete"],
+    "hand_failures_kill20_async": lambda r: r["figures"]["fidelity_ratio"] >= 0.8 and r["figures"]["mcap_complete"],
     # coordinator killed at step 300 -> the swarm still finishes the formation; frozen agents -> the swarm
     # never stalls longer than the neighbour timeout (+0.5 s of scheduling on two cores); 30% drop -> completes.
-    "hand_failures_freeze_drop": lambda f: (float(f["fidelity_iou"]) >= 0.4 and
-                                            float(f["longest_stall_seconds"]) <= float(f["neighbour_timeout_seconds"]) + 0.5
-                                            and int(f["finished"]) >= 30 - 2),
-    "hand_failures_freeze_drop_async": lambda f: (float(f["fidelity_iou"]) >= 0.4 and
-                                                  float(f["longest_stall_seconds"]) <= float(f["neighbour_timeout_seconds"]) + 0.5
-                                                  and int(f["finished"]) >= 30),
-    "branching_stiffness": lambda f: float(f["branch_gap"]) >= 7.0,
-    "viscosity_drag": lambda f: float(f["mean_vx"]) > 0.0,
+    "hand_failures_freeze_drop": lambda r: (r["fidelity"]["iou"] >= 0.4 and
+                                            r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
+                                            and r["finished"] >= 30 - 2),
+    "hand_failures_freeze_drop_async": lambda r: (r["fidelity"]["iou"] >= 0.4 and
+                                                  r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
+                                                  and r["finished"] >= 30),
+    "branching_stiffness": lambda r: r["figures"]["branch_gap"] >= 7.0,
+    "viscosity_drag": lambda r: r["figures"]["mean_vx"] > 0.0,
 }
 
 SMALL = [p for p in SCENARIOS if load_scenario(p).agents <= CI_MAX_AGENTS]
@@ -110,14 +109,14 @@ SMALL = [p for p in SCENARIOS if load_scenario(p).agents <= CI_MAX_AGENTS]
 @pytest.mark.swarm
 def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
     sc = load_scenario(path)
-    r = run_cli(["run", str(path), "--out", str(tmp_path / sc.name)])
-    f = figures(r.stdout)
+    r, f = run_record(["run", str(path), "--out", str(tmp_path / sc.name)])
     print(r.stdout)
-    assert r.returncode == 0 and f.get("passed") == "true", f"{path.name}: rc {r.returncode}\n{r.stdout}\n{r.stderr[-3000:]}"
+    assert r.returncode == 0 and f["passed"], f"{path.name}: rc {r.returncode}\n{r.stdout}\n{r.stderr[-3000:]}"
     assert Path(f["mcap"]).stat().st_size > 0
-    assert f["sync"] == sc.sync
-    assert int(f["failures_injected"]) == len([x for x in sc.failures if x.kind != "drop"])
-    pictures = [ln.split("=", 1)[1] for ln in r.stdout.splitlines() if ln.startswith("picture=")]
+    assert f["sync"] == sc.sync and f["kind"] == ("experiment" if sc.experiment != "imitate" else
+                                                  "sequence" if sc.frame_steps else "imitation")
+    assert len(f["failures"]) == len([x for x in sc.failures if x.kind != "drop"])
+    pictures = f["pictures"]
     assert any(p.endswith(".gif") for p in pictures) and all(Path(p).exists() for p in pictures)
     if sc.frame_steps:
         # a gesture sequence: the recorded commands change gesture (next seq) once the swarm's clock has
@@ -139,11 +138,10 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
 def test_run_options_inject_failures_in_async_mode(tmp_path):
     """Failures given as `run` options on asynchronous agents: SIGKILL and late joiners; the MCAP stays
     complete (a late joiner is expected from its first state on)."""
-    r = run_cli(["run", str(REPO / "scenarios" / "viscosity_drag.toml"), "--out", str(tmp_path / "o"), "--agents", "16",
-                 "--sync", "async", "--kill", "3@60", "--late-join", "2@90"])
-    f = figures(r.stdout)
+    r, f = run_record(["run", str(REPO / "scenarios" / "viscosity_drag.toml"), "--out", str(tmp_path / "o"),
+                       "--agents", "16", "--sync", "async", "--kill", "3@60", "--late-join", "2@90"])
     assert r.returncode == 0, r.stdout + r.stderr[-2000:]
-    assert f["sync"] == "async" and f["failures_injected"] == "2"
-    assert "SIGKILL agents" in r.stdout and "late joiners [16, 17]" in r.stdout
-    assert int(f["finished"]) == 16 - 3 + 2
-    assert f["mcap_complete"] == "true", r.stdout
+    assert f["sync"] == "async" and len(f["failures"]) == 2
+    assert "SIGKILL agents" in f["failures"][0] and "late joiners [16, 17]" in f["failures"][1]
+    assert f["finished"] == 16 - 3 + 2 and f["failures_killed"] == 3 and f["failures_joined"] == 2
+    assert f["figures"]["mcap_complete"], r.stdout

@@ -13,6 +13,26 @@ from agent.sph.particle import Control
 MODES = ("lockstep", "async")
 
 
+@dataclass(frozen=True)
+class NeighbourTimeouts:
+    """s an agent waits for a silent expected neighbour before it drops it (frozen or lost), by kind of run.
+
+    Written here once; every command and run kind takes its value from `NEIGHBOUR_TIMEOUT`.
+    default     launch, physics experiments: a frozen neighbour costs the swarm this long
+    imitation   imitate (file, camera): up to 300 agents share 2 cores with perception and the recorder
+    benchmark   bench: N = 1000 on 2 cores, a step can take seconds while the links are full
+    exact       verify: never drop a neighbour that is merely slow (exactness with both cores busy)
+    """
+
+    default: float = 2.0
+    imitation: float = 5.0
+    benchmark: float = 10.0
+    exact: float = 15.0
+
+
+NEIGHBOUR_TIMEOUT = NeighbourTimeouts()
+
+
 @dataclass
 class AgentSpec:
     """One agent's start-up parameters.
@@ -44,7 +64,7 @@ class AgentSpec:
     initial: list[float]
     control: dict = field(default_factory=dict)
     params: dict = field(default_factory=dict)
-    timeout: float = 2.0
+    timeout: float = NEIGHBOUR_TIMEOUT.default
     start_timeout: float = 120.0
     drop_out: float = 0.0
     secret: str = ""

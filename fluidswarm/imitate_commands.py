@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from agent.protocol.errors import UserError
+from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
+
+if TYPE_CHECKING:
+    from fluidswarm.run import RunRecord
 
 
 def register(sub) -> None:
@@ -26,6 +31,7 @@ def register(sub) -> None:
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
     add_live_argument(p)
+    add_json_argument(p)
     p.set_defaults(func=_imitate)
 
 
@@ -37,7 +43,6 @@ def _coordinator(args) -> int:
 
 def _imitate(args) -> int:
     from coordinator.control.fill import ShapeError
-    from coordinator.imitate import imitate
     from coordinator.control.imitation_setup import DEFAULT_STEPS
     from perception.io import InputError
     from perception.segmentation import SegmentationError
@@ -55,29 +60,33 @@ def _imitate(args) -> int:
         raise UserError(f"--stall-seconds: must be in (0, 3600), got {args.stall_seconds}")
     live = live_from_args(args)
     if args.camera is not None:
-        from coordinator.imitate_camera import imitate_camera
+        from fluidswarm.imitate_camera import imitate_camera
 
-        res = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
-                             fps=args.fps, stall_seconds=args.stall_seconds, live=live)
-        _print_result(res)
-        return 0
-    try:
-        res = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller, frame=args.frame,
-                      name=Path(args.input).stem or "imitate", live=live)
-    except (InputError, SegmentationError, ShapeError) as exc:
-        raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
-    _print_result(res)
+        record = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
+                                fps=args.fps, stall_seconds=args.stall_seconds, live=live)
+    else:
+        from fluidswarm.imitate import imitate
+
+        try:
+            record = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
+                             frame=args.frame, name=Path(args.input).stem or "imitate", live=live)
+        except (InputError, SegmentationError, ShapeError) as exc:
+            raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
+    if args.json:
+        print_json(record)
+    else:
+        print_lines(record)
     return 0
 
 
-def _print_result(res) -> None:
+def print_lines(r: RunRecord) -> None:
     from coordinator.control.fidelity import format_fidelity
 
-    print(format_fidelity(res.fidelity))
-    print(f"formation_seconds={res.formation_seconds:.2f}")
-    print(f"formation_wall_seconds={res.formation_wall_seconds:.2f}")
-    print(f"formation_settled={'true' if res.settled else 'false'}")
-    print(f"agents_finished={sum(1 for r in res.finals.values() if r.get('status') == 'done')}")
-    print(f"steps_per_second={res.steps_per_second:.2f}")
-    print(f"mcap={res.mcap}")
-    print(f"png={res.png}")
+    print(format_fidelity(r.fidelity))
+    print(f"formation_seconds={r.formation_seconds:.2f}")
+    print(f"formation_wall_seconds={r.formation_wall_seconds:.2f}")
+    print(f"formation_settled={'true' if r.formation_settled else 'false'}")
+    print(f"agents_finished={r.finished}")
+    print(f"steps_per_second={r.steps_per_second:.2f}")
+    print(f"mcap={r.mcap}")
+    print(f"png={r.pictures[0]}")

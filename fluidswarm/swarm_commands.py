@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import sys
 
-import numpy as np
-
 from agent.protocol.errors import UserError
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
 
 
@@ -21,7 +21,7 @@ def register(sub) -> None:
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
     p.add_argument("--ids", help="start only this slice of the swarm on this host, e.g. 0-19 (multi-host)")
     p.add_argument("--run", help="run name (must match on every host of a split run)")
-    p.add_argument("--timeout", type=float, default=2.0, help="s before a silent neighbour is dropped")
+    p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.default, help="s before a silent neighbour is dropped")
     p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
     p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
     p.add_argument("--password", default="")
@@ -30,17 +30,19 @@ def register(sub) -> None:
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
     add_live_argument(p)
+    add_json_argument(p)
     p.set_defaults(func=_launch)
 
     p = sub.add_parser("verify", help="N agent processes against the per-particle reference driver")
     p.add_argument("--agents", type=int, default=64)
     p.add_argument("--steps", type=int, default=300)
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
-    p.add_argument("--timeout", type=float, default=15.0, help="s before a silent neighbour is dropped")
+    p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.exact, help="s before a silent neighbour is dropped")
     p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
     p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
     p.add_argument("--password", default="")
+    add_json_argument(p)
     p.set_defaults(func=_verify)
 
 
@@ -79,9 +81,16 @@ def _check_counts(agents: int, steps: int) -> None:
         raise UserError(f"--steps: must be >= 0, got {steps}")
 
 
+def _options(args, name: str, timeout: float):
+    from fluidswarm.run import RunOptions
+
+    return RunOptions(name, None, timeout, run=args.run, connect=args.connect, user=args.user,
+                      password=args.password)
+
+
 def _launch(args) -> int:
-    from agent.launcher import Launcher, run_swarm
-    from agent.sph.setups import spread_block
+    from fluidswarm.block import Block
+    from fluidswarm.run import Run, Sync
 
     _check_counts(args.agents, args.steps)
     for name in ("rate", "max_age"):
@@ -90,59 +99,47 @@ def _launch(args) -> int:
             raise UserError(f"--{name.replace('_', '-')}: must be a positive number, got {v}")
     if args.live is not None and not args.record:
         raise UserError("--live needs --record FILE.mcap (the recorder process serves the live view)")
-    live = live_from_args(args)
-    setup = spread_block(args.agents)
+    options = _options(args, "launch", args.timeout)
+    options.live = live_from_args(args)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
-    try:
-        launcher = Launcher(run=args.run, connect=args.connect, agent_timeout=args.timeout,
-                            user=args.user, password=args.password)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    with launcher:
-        print(f"run={launcher.run} router={launcher.endpoint}", flush=True)
-        if args.record:
-            launcher.start_recorder(args.record, {"scenario": "launch", "agents": args.agents, "steps": args.steps,
-                                                  "params": setup.params.as_dict()}, setup.params.dt, live=live)
-        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids),
-                        mode=args.mode, rate=args.rate, max_age=args.max_age)
-    print(f"mode={args.mode}")
-    print(f"agents={len(res.ids)}")
-    print(f"finished={sum(1 for r in res.finals.values() if r['status'] == 'done')}")
-    print(f"steps_per_second={res.steps_per_second():.2f}")
-    print(f"msgs_per_agent_step={res.msgs_per_agent_step():.2f}")
-    print(f"neighbours_per_agent={res.neighbours_per_agent():.2f}")
-    print(f"startup_seconds={res.startup_seconds:.2f}")
+    kind = Block(args.agents, args.steps, Sync(args.mode, args.rate, args.max_age), ids, args.record)
+    with Run(kind, options) as run:
+        # the run's name and router come first, as they happen: the other hosts of a split run need them
+        print(f"run={run.launcher.run} router={run.launcher.endpoint}", flush=True,
+              file=sys.stderr if args.json else sys.stdout)
+        kind.drive(run)
+    r = run.record
+    if args.json:
+        print_json(r)
+        return 0
+    print(f"mode={r.sync}")
+    print(f"agents={r.agents}")
+    print(f"finished={r.finished}")
+    print(f"steps_per_second={r.steps_per_second:.2f}")
+    print(f"msgs_per_agent_step={r.msgs_per_agent_step:.2f}")
+    print(f"neighbours_per_agent={r.neighbours_per_agent:.2f}")
+    print(f"startup_seconds={r.startup_seconds:.2f}")
     return 0
 
 
 def _verify(args) -> int:
-    from agent.launcher import Launcher, run_swarm
-    from agent.sph.particle import X, Y
-    from agent.sph.reference import PerParticleDriver
-    from agent.sph.setups import spread_block
+    from fluidswarm.block import Block
+    from fluidswarm.run import Run
 
     _check_counts(args.agents, args.steps)
-    setup = spread_block(args.agents)
-    ids = parse_ids(args.ids, args.agents) if args.ids else list(setup.ids)
+    ids = parse_ids(args.ids, args.agents) if args.ids else None
     if args.ids and not args.run:
         raise UserError("--ids needs --run: every host of a split run must use the same run name")
-    try:
-        launcher = Launcher(run=args.run, connect=args.connect, agent_timeout=args.timeout,
-                            user=args.user, password=args.password)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    with launcher:
-        res = run_swarm(setup, args.steps, launcher=launcher, ids=ids, swarm_ids=list(setup.ids))
-    reference = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(args.steps)
-    missing = [i for i in ids if i not in res.finals or res.finals[i]["status"] != "done"]
-    if missing:
-        print(f"fluidswarm verify: {len(missing)} agents did not finish (first: {missing[:5]})", file=sys.stderr)
-        error = float("inf")
+    kind = Block(args.agents, args.steps, ids=ids, reference=True, kind="verify")
+    with Run(kind, _options(args, "verify", args.timeout)) as run:
+        kind.drive(run)
+    r = run.record
+    error = r.figures["max_position_error"]
+    if args.json:
+        print_json(r)
     else:
-        got = np.array([res.finals[i]["state"] for i in ids])
-        error = float(np.abs(got[:, [X, Y]] - reference[ids][:, [X, Y]]).max())
-    print(f"max_position_error={error:.3e}")
-    print(f"msgs_per_agent_step={res.msgs_per_agent_step():.3f}")
-    print(f"neighbours_per_agent={res.neighbours_per_agent():.3f}")
-    print(f"steps_per_second={res.steps_per_second():.2f}")
-    return 0 if error <= 1e-9 else 1
+        print(f"max_position_error={error:.3e}")
+        print(f"msgs_per_agent_step={r.msgs_per_agent_step:.3f}")
+        print(f"neighbours_per_agent={r.neighbours_per_agent:.3f}")
+        print(f"steps_per_second={r.steps_per_second:.2f}")
+    return 0 if r.passed else 1

@@ -1,0 +1,61 @@
+"""The plainest kind of run: a spread block of agents (launch, verify, bench), optionally checked."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from fluidswarm.run import Run, SwarmPlan, Sync
+
+EXACT = 1e-9  # m: the agents' positions must match the reference driver's to this (float rounding only)
+
+
+@dataclass
+class Block:
+    """`agents` agent processes on a spread block (agent/sph/setups.py) for `steps` steps; `ids` the slice
+    started on this host (None: all); `record` an MCAP file to write (None: none); `reference`: compare the
+    final states with the per-particle reference driver (`figures["max_position_error"]` [m])."""
+
+    agents: int
+    steps: int
+    sync: Sync = Sync()
+    ids: list[int] | None = None
+    record: str | None = None
+    reference: bool = False
+    startup_timeout: float | None = None
+    run_timeout: float | None = None
+    kind: str = "launch"
+
+    def drive(self, run: Run) -> None:
+        from agent.sph.setups import spread_block
+
+        self.setup = setup = spread_block(self.agents)
+        if self.record:
+            run.record_to({"scenario": "launch", "agents": self.agents, "steps": self.steps,
+                           "params": setup.params.as_dict()}, setup.params.dt, path=self.record)
+        run.swarm(SwarmPlan(setup, self.steps, self.sync, ids=self.ids, swarm_ids=list(setup.ids),
+                            startup_timeout=self.startup_timeout, run_timeout=self.run_timeout))
+
+    def score(self, run: Run) -> None:
+        if not self.reference:
+            return
+        from agent.sph.particle import X, Y
+        from agent.sph.reference import PerParticleDriver
+
+        s, r = self.setup, run.record
+        ids = self.ids if self.ids is not None else [int(i) for i in s.ids]
+        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params).run(self.steps)
+        missing = [i for i in ids if i not in r.finals or not r.finals[i].done]
+        r.figures["agents_missing"] = len(missing)
+        if missing:
+            print(f"fluidswarm verify: {len(missing)} agents did not finish (first: {missing[:5]})", file=sys.stderr)
+            error = float("inf")
+        else:
+            got = np.array([r.finals[i].state for i in ids])
+            error = float(np.abs(got[:, [X, Y]] - reference[ids][:, [X, Y]]).max())
+        r.figures["max_position_error"] = error
+        if not error <= EXACT:
+            r.passed = False
+            r.why.append(f"max_position_error {error:.3e} > {EXACT:g} m")

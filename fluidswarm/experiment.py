@@ -1,0 +1,62 @@
+"""Physics experiments of a scenario file (branching, drag) through agent processes: a `RunKind`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from agent.sph.setups import branch_gap
+from fluidswarm.run import Run, SwarmPlan, Sync
+from fluidswarm.scenario import Scenario
+
+DEFAULT_STEPS = 400
+
+
+def experiment_setup(sc: Scenario, agents: int):
+    """The scenario's set-up (agent/sph/setups.py) for `agents` particles, with its [sph] and dt overrides."""
+    from agent.sph import setups
+
+    base = {"branching": setups.branching, "drag": setups.drag}[sc.experiment]
+    default = base(agents)
+    if sc.sph or sc.dt:
+        return base(agents, params=default.params.with_overrides(sc.sph, sc.dt))
+    return default
+
+
+def scenario_sync(sc: Scenario) -> Sync:
+    return Sync(sc.sync, sc.async_rate, sc.async_max_age)
+
+
+@dataclass
+class Experiment:
+    """The scenario `sc` (experiment branching or drag) with `agents` agent processes, recorded, with the
+    run's failures; scored by the branch gap [m] (branching) or the mean x velocity [m/s] (drag)."""
+
+    sc: Scenario
+    agents: int
+    kind: str = "experiment"
+
+    def drive(self, run: Run) -> None:
+        sc = self.sc
+        self.setup = setup = experiment_setup(sc, self.agents)
+        steps = sc.steps or DEFAULT_STEPS
+        meta = {"scenario": sc.name, "scenario_file": str(sc.path), "experiment": sc.experiment, "agents": self.agents,
+                "steps": steps, "seed": sc.seed, "sync": sc.sync, "params": setup.params.as_dict(),
+                "agent_ids": [int(i) for i in setup.ids], "failures": [f.__dict__ for f in sc.failures]}
+        run.record_to(meta, setup.params.dt)
+        drop = {f.agent: {"drop_out": f.fraction} for f in sc.failures if f.kind == "drop"}
+        run.swarm(SwarmPlan(setup, steps, scenario_sync(sc), per_agent=drop))
+
+    def score(self, run: Run) -> None:
+        record, setup = run.record, self.setup
+        ids, pos = record.done_positions()
+        # late joiners take the class of particle 0 (they were given its control)
+        index = {int(i): k for k, i in enumerate(setup.ids)}
+        classes = np.array([setup.classes[index.get(i, 0)] for i in ids], dtype=int)
+        if self.sc.experiment == "branching":
+            gap = branch_gap(classes, pos) if ids else math.nan
+            record.figures["branch_gap"] = 0.0 if math.isnan(gap) else gap
+        if self.sc.experiment == "drag":
+            record.figures["mean_vx"] = float(np.mean([record.finals[i].state[2] for i in ids])) if ids else 0.0

@@ -1,0 +1,164 @@
+"""Imitation runs of a file (image, folder of frames, video): one frame, or a gesture sequence.
+
+Perception runs once, here: the observation fixes the transform, the swarm's start and the commands,
+which the coordinator process receives as a file (`--commands`) and signs and broadcasts. The run is a
+`fluidswarm.run.Run`; this module is its `RunKind` (drive: perceive, start the coordinator, record, run
+the swarm with the settle watch; score: fidelity of the final formation, the formation PNG).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from agent.launcher import die_with_parent
+from coordinator.control.fidelity import fidelity
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, observations_for, \
+    prepare_observation
+from coordinator.control.settle import SettleRule, SettleWatch
+from coordinator.process import commands_along, write_commands
+from fluidswarm.recording.render import plot_formation
+from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+
+
+def perceive(input_path, agents: int, controller: str, frame: int | None, sequence: bool):
+    """(the imitation set-up, [(first frame, command)]) of one frame of the input, or of all its frames.
+
+    A sequence starts as for its first frame; its target (what it is scored against) is the last frame's
+    silhouette in the first frame's image -> domain transform, which the commands keep too."""
+    _frames, obs, k = observations_for(input_path, None if sequence else frame)
+    shown = obs if sequence else [obs[k]]
+    im = prepare_observation(shown[0], agents, controller=controller)
+    commands = commands_along(shown, im.transform, agents, controller)
+    if sequence:
+        im.mask, im.observation = obs[-1].mask, obs[-1]
+    return im, commands
+
+
+def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
+    """The coordinator process on the run's bus, with the run's command key in its environment."""
+    la = run.launcher
+    # the run's command key and the coordinator's credentials (docs/security.md) travel in its environment
+    env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
+    cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run] + args
+    proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, preexec_fn=die_with_parent)
+    run.add_coordinator(proc)
+    return proc
+
+
+def write_target(folder: Path, im: Imitation, frame_bgr: np.ndarray) -> tuple[str, str]:
+    """The recorder's target (mask + transform, .npz) and input picture (.jpg) in `folder`."""
+    target, image = folder / "target.npz", folder / "input.jpg"
+    t = im.transform
+    np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
+    cv2.imwrite(str(image), frame_bgr)
+    return str(target), str(image)
+
+
+def score_formation(run: Run, record: RunRecord, mask: np.ndarray, im: Imitation, title: str, waypoints=None,
+                    outline=()) -> None:
+    """Fidelity of the finished agents against `mask` (scored once, here) and the formation PNG."""
+    ids, pos = record.done_positions()
+    classes = np.array([record.finals[i].particle_class for i in ids], dtype=int)
+    record.fidelity = fidelity(mask, im.transform, pos)
+    t = im.transform
+    rows, cols = mask.shape
+    extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
+    png = plot_formation(Path(run.options.out) / f"{run.options.name}_formation.png", pos, classes,
+                         [c.name for c in im.command.classes], f"{title}: {len(ids)} agents, iou {record.fidelity.iou:.2f}",
+                         background=mask.astype(float), extent=extent, waypoints=waypoints, outline=outline)
+    record.pictures.append(str(png))
+    last_step = max((r.steps for r in record.finals.values() if r.done), default=0)
+    if record.formation_seconds is None:
+        record.formation_seconds = last_step * im.setup.params.dt
+        record.formation_wall_seconds = record.wall_seconds
+        record.formation_settled = False
+
+
+@dataclass
+class FileImitation:
+    """Imitate `input_path`: one frame (`frame`, default 0) until the formation settles (`settle`; None:
+    always `steps` steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each shown for
+    `frame_steps` swarm steps. `sph`/`dt` override the imitation's SPH parameters; `drop`: agent id ->
+    fraction of its states it drops (failure injection)."""
+
+    input_path: str
+    agents: int = 60
+    steps: int = DEFAULT_STEPS
+    controller: str = DEFAULT_CONTROLLER
+    frame: int | None = None
+    frame_steps: int = 0
+    sph: dict | None = None
+    dt: float = 0.0
+    sync: Sync = Sync()
+    drop: dict | None = None
+    settle: SettleRule | None = SettleRule()
+    kind: str = "imitation"
+
+    def __post_init__(self):
+        if self.frame_steps > 0:
+            self.kind = "sequence"
+
+    def drive(self, run: Run) -> None:
+        sequence = self.frame_steps > 0
+        frame = None if sequence else (0 if self.frame is None else self.frame)
+        im, commands = perceive(self.input_path, self.agents, self.controller, frame, sequence)
+        if self.sph or self.dt:
+            im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
+        self.im = im
+        o = run.options
+        tmp = run.scratch
+        target, image = write_target(tmp, im, im.observation.frame)
+        meta = {"scenario": o.name, "input": str(self.input_path), "frame": frame, "frame_steps": self.frame_steps,
+                "gesture": im.command.gesture, "controller": self.controller, "agents": self.agents,
+                "steps": self.steps, "seed": o.seed, "sync": self.sync.mode, "params": im.setup.params.as_dict(),
+                "agent_ids": list(range(self.agents)), "transform": im.transform.as_dict(),
+                "failures": [getattr(f, "__dict__", str(f)) for f in o.failures]}
+        run.record_to(meta, im.setup.params.dt, target=target, image=image)
+        write_commands(tmp / "commands.json", commands)
+        start_coordinator(run, ["--commands", str(tmp / "commands.json"), "--agents", str(self.agents),
+                                "--controller", self.controller]
+                          + (["--frame-steps", str(self.frame_steps)] if sequence else []))
+        self.watch = None
+        if self.settle is not None and not sequence:
+            # the formation may settle before the failures are due: not before they have all happened
+            self.watch = SettleWatch(run.launcher, im.mask, im.transform, im.setup.params.dt, self.settle,
+                                     busy_with_failures(run))
+            run.on_start(self.watch.start)
+            run.on_stop(self.watch.stop)
+        first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
+        run.swarm(SwarmPlan(im.setup, self.steps, self.sync, per_agent={i: {"drop_out": f} for i, f in (self.drop or {}).items()},
+                            joiners_at=(first.x, first.y)))
+
+    def score(self, run: Run) -> None:
+        record, im = run.record, self.im
+        w = self.watch
+        if w is not None and w.settled_step is not None:
+            record.formation_seconds = w.settled_step * im.setup.params.dt
+            record.formation_wall_seconds = w.settled_wall_seconds
+            record.formation_settled = True
+        sequence = self.frame_steps > 0
+        fill = im.command.fill
+        wps = None if sequence or fill else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
+        score_formation(run, record, im.mask, im, Path(self.input_path).name, waypoints=wps,
+                        outline=fill.rings if fill is not None and not sequence else ())
+
+
+def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
+            controller: str = DEFAULT_CONTROLLER, name: str = "imitate", frame: int | None = None, live: str = "",
+            progress: bool = False) -> RunRecord:
+    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes."""
+    from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+
+    kind = FileImitation(str(input_path), agents, steps, controller, frame)
+    options = RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, progress=progress)
+    with Run(kind, options) as run:
+        kind.drive(run)
+    return run.record

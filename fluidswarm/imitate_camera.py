@@ -1,0 +1,135 @@
+"""`fluidswarm imitate --camera DEVICE|URL|FILE`: the swarm follows a person watched live.
+
+The coordinator process reads the camera (coordinator/camera.py) and says where the person is first seen
+(`first.npz`); the swarm is placed and the recorder started from that observation, then the agents follow
+each new command as the gesture changes. The run lasts `steps` steps. If the camera stream ends or stalls
+first, the coordinator exits with a one-line error: the swarm is told to finish a few steps later (all
+agents at the same step, so the MCAP stays complete), the recording is finished, and that line is raised
+as a UserError.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from agent.protocol.errors import UserError
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from coordinator.camera import load_observation
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
+from fluidswarm.imitate import score_formation, start_coordinator, write_target
+from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan
+
+FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
+END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
+
+
+def _coordinator_error(coord: subprocess.Popen, source: str) -> str:
+    """The coordinator's one-line error, without its program prefix."""
+    try:
+        err = coord.stderr.read().decode("utf-8", "replace") if coord.stderr else ""
+    except (OSError, ValueError):
+        err = ""
+    # Its own error line, not whatever a library logged after it (FFmpeg does, closing a network stream).
+    lines = [line for line in err.splitlines() if line.startswith("fluidswarm coordinator: error: ")]
+    if not lines:
+        return f"camera {source}: the coordinator stopped (code {coord.returncode})"
+    return lines[-1].split("error: ", 1)[1]
+
+
+def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float) -> Path:
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        if coord.poll() is not None:
+            raise UserError(_coordinator_error(coord, source))
+        if time.monotonic() > deadline:
+            raise UserError(f"camera {source}: no person seen in {timeout:.0f} s")
+        time.sleep(0.05)
+    return path
+
+
+class CoordinatorWatch:
+    """Ends the swarm together (ctl/end a little ahead of the fastest agent) if the coordinator exits."""
+
+    def __init__(self, launcher, coord: subprocess.Popen):
+        self.launcher, self.coord = launcher, coord
+        self.failed = False
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, daemon=True)
+
+    def start(self) -> None:
+        self._t0 = time.monotonic()
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(5)
+
+    def _watch(self) -> None:
+        while not self._stop.wait(0.1):
+            if self.coord.poll() is None:
+                continue
+            self.failed = self.coord.returncode != 0
+            if self.failed:
+                step = max(self.launcher.max_step, 0)
+                rate = step / max(time.monotonic() - self._t0, 1e-3)
+                self.launcher.end_at(step + 5 + math.ceil(rate * END_LEAD_SECONDS))
+            return
+
+
+@dataclass
+class CameraImitation:
+    """Imitate the person seen by `source` for `steps` steps; the gesture sequence comes as it happens.
+    fps [1/s]: at most this many frames observed per second; stall_seconds [s]: no new frame for this long
+    is an error."""
+
+    source: str
+    agents: int = 60
+    steps: int = DEFAULT_STEPS
+    controller: str = DEFAULT_CONTROLLER
+    fps: float = 5.0
+    stall_seconds: float = 5.0
+    kind: str = "camera"
+
+    def drive(self, run: Run) -> None:
+        o = run.options
+        tmp = run.scratch
+        coord = start_coordinator(run, ["--camera", str(self.source), "--fps", repr(float(self.fps)),
+                                        "--stall-seconds", repr(float(self.stall_seconds)), "--agents", str(self.agents),
+                                        "--controller", self.controller, "--observations", str(tmp)])
+        self.watch = watch = CoordinatorWatch(run.launcher, coord)
+        run.on_start(watch.start)
+        run.on_stop(watch.stop)
+        first = load_observation(_wait_first(coord, tmp / "first.npz", self.source,
+                                             FIRST_SECONDS + self.stall_seconds))
+        self.im = im = prepare_observation(first, self.agents, controller=self.controller)
+        target, image = write_target(tmp, im, first.frame)
+        meta = {"scenario": o.name, "camera": str(self.source), "fps": self.fps, "gesture": im.command.gesture,
+                "controller": self.controller, "agents": self.agents, "steps": self.steps, "sync": "lockstep",
+                "params": im.setup.params.as_dict(), "agent_ids": list(range(self.agents)),
+                "transform": im.transform.as_dict()}
+        run.record_to(meta, im.setup.params.dt, target=target, image=image)
+        run.swarm(SwarmPlan(im.setup, self.steps))
+        self.latest = load_observation(tmp / "latest.npz")
+
+    def score(self, run: Run) -> None:
+        coord = run.coordinator
+        if self.watch.failed or coord.returncode not in (0, -15, None):
+            raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
+        # against the last gesture commanded
+        score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}")
+
+
+def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
+                   controller: str = DEFAULT_CONTROLLER, fps: float = 5.0, stall_seconds: float = 5.0,
+                   live: str = "", name: str = "camera") -> RunRecord:
+    """`fluidswarm imitate --camera SOURCE`."""
+    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds)
+    with Run(kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True)) as run:
+        kind.drive(run)
+    return run.record

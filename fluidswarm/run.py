@@ -1,0 +1,320 @@
+"""One run of a swarm, from the router up to the typed record of what happened: the orchestration layer.
+
+Every command that runs agents (demo, run, imitate, imitate --camera, launch, verify, bench) goes through
+`Run`: it owns the launcher (router + agent processes), the recorder, the failure injector, the progress
+line and the record, once. What differs between kinds of run is behind `RunKind`:
+
+    drive(run)  set up what the kind needs (perception, a coordinator process) and run the swarm with
+                `run.record_to(...)` and `run.swarm(plan)`
+    score(run)  after the agents and the recorder have stopped: the kind's own figures into `run.record`
+
+    with Run(kind, RunOptions(...)) as run:
+        kind.drive(run)
+    record = run.record            # RunRecord; record.to_json() is what `--json` prints
+
+Nothing travels back through hooks or attributes patched onto the launcher: side processes, start
+callbacks and watchers are registered on the Run, and results are fields of the record.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Protocol
+
+import numpy as np
+
+from agent.launcher import Launcher, SwarmResult, run_swarm
+from agent.protocol.errors import UserError
+from agent.protocol.report import FinalReport
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from fluidswarm.failures import FailureInjector
+from fluidswarm.recording.progress import Progress
+
+if TYPE_CHECKING:
+    from coordinator.control.fidelity import Fidelity
+
+
+@dataclass(frozen=True)
+class Sync:
+    """How the agents keep time (docs/protocol.md): mode "lockstep" or "async"; rate [steps/s] each async
+    agent aims for (default 12); max_age [s] after which an async neighbour state is not used (default 1)."""
+
+    mode: str = "lockstep"
+    rate: float = 12.0
+    max_age: float = 1.0
+
+    def spec(self) -> dict:
+        return {"mode": self.mode, "rate": self.rate, "max_age": self.max_age}
+
+
+@dataclass
+class SwarmPlan:
+    """The agents of a run: `setup` (agent.sph.setups.Setup) stepped `steps` times with `sync`.
+
+    per_agent: id -> extra spec fields (e.g. {"drop_out": 0.3}); joiners_at: (x, y) [m] where late joiners
+    start, with `joiner_control` (default the first particle's); ids / swarm_ids: the slice started here
+    and the whole swarm (multi-host); startup_timeout / run_timeout [s]: None for run_swarm's defaults."""
+
+    setup: object
+    steps: int
+    sync: Sync = Sync()
+    per_agent: dict = field(default_factory=dict)
+    joiners_at: tuple[float, float] | None = None
+    joiner_control: object = None
+    ids: list[int] | None = None
+    swarm_ids: list[int] | None = None
+    startup_timeout: float | None = None
+    run_timeout: float | None = None
+
+
+@dataclass
+class RunOptions:
+    """name: the run's name in outputs (MCAP `<out>/<name>.mcap`); out: output folder (None: nothing
+    written, no recorder); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:
+    fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; live: HOST:PORT
+    of the recorder's Foxglove server; commands: the agents follow signed gesture commands; progress: the
+    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect/user/password: the bus (None: a fresh run on an embedded router)."""
+
+    name: str
+    out: Path | None = None
+    neighbour_timeout: float = NEIGHBOUR_TIMEOUT.default
+    failures: tuple = ()
+    seed: int = 0
+    live: str = ""
+    commands: bool = False
+    progress: bool = False
+    run: str | None = None
+    connect: str | None = None
+    user: str = ""
+    password: str = ""
+
+
+@dataclass
+class RunRecord:
+    """What one run did. Times in s; `figures` holds the kind's own measures (branch_gap, mean_vx,
+    max_position_error, the robustness figures of a scenario ...); `finals` (each agent's report) stays
+    out of the JSON."""
+
+    name: str
+    kind: str
+    agents: int
+    steps: int
+    sync: str = "lockstep"
+    run: str = ""
+    router: str = ""
+    finished: int = 0
+    steps_per_second: float = 0.0
+    startup_seconds: float = 0.0
+    wall_seconds: float = 0.0
+    msgs_per_agent_step: float = 0.0
+    neighbours_per_agent: float = 0.0
+    neighbour_timeout_seconds: float = 0.0
+    longest_stall_seconds: float = 0.0
+    failures: list[str] = field(default_factory=list)
+    failures_killed: int = 0
+    failures_frozen: int = 0
+    failures_joined: int = 0
+    mcap: str | None = None
+    pictures: list[str] = field(default_factory=list)
+    fidelity: Fidelity | None = None
+    formation_seconds: float | None = None
+    formation_wall_seconds: float | None = None
+    formation_settled: bool | None = None
+    figures: dict[str, float | int | str] = field(default_factory=dict)
+    passed: bool = True
+    why: list[str] = field(default_factory=list)
+    finals: dict[int, FinalReport] = field(default_factory=dict, repr=False)
+
+    def done_positions(self) -> tuple[list[int], np.ndarray]:
+        """Ids (sorted) and final (x, y) [m] of the agents that reached their last step."""
+        ids = sorted(i for i, r in self.finals.items() if r.done)
+        pos = np.array([self.finals[i].state[:2] for i in ids]) if ids else np.empty((0, 2))
+        return ids, pos
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        del d["finals"]
+        return d
+
+    def to_json(self) -> str:
+        """One line of JSON (non-finite numbers as null: JSON has no NaN)."""
+        return json.dumps(_finite(self.as_dict()), separators=(",", ":"))
+
+
+def _finite(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite(x) for x in v]
+    return v
+
+
+class RunKind(Protocol):
+    """A kind of run (experiment, imitation, sequence, camera, plain block): what it adds to `Run`."""
+
+    kind: str
+
+    def drive(self, run: "Run") -> None: ...
+
+    def score(self, run: "Run") -> None: ...
+
+
+def longest_stall(step_times: dict[int, float]) -> float:
+    """Longest wall-clock gap between the first sightings of consecutive steps (s): how long the swarm as
+    a whole made no progress, e.g. while it waited for frozen agents."""
+    if len(step_times) < 2:
+        return 0.0
+    steps = sorted(step_times)
+    t = np.maximum.accumulate(np.array([step_times[k] for k in steps]))
+    return float(np.max(np.diff(t)))
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 10.0) -> None:
+    """SIGTERM a side process (it closes its session), SIGKILL after `timeout` s."""
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+class Run:
+    """The frame of one run (see the module's docstring). Usable once."""
+
+    def __init__(self, kind: RunKind, options: RunOptions):
+        self.kind, self.options = kind, options
+        self.launcher: Launcher | None = None
+        self.injector: FailureInjector | None = None
+        self.result: SwarmResult | None = None
+        self.record: RunRecord | None = None
+        self.mcap: Path | None = None
+        self.plan: SwarmPlan | None = None
+        self.coordinator: subprocess.Popen | None = None
+        self._on_start: list[Callable[[], None]] = []
+        self._on_stop: list[Callable[[], None]] = []
+        self._bar: Progress | None = None
+        self._scratch: Path | None = None
+
+    def __enter__(self) -> "Run":
+        o = self.options
+        try:
+            self.launcher = Launcher(run=o.run, connect=o.connect, agent_timeout=o.neighbour_timeout,
+                                     user=o.user, password=o.password, commands=o.commands)
+        except ValueError as exc:  # a bad run name
+            raise UserError(str(exc)) from None
+        if o.out is not None:
+            Path(o.out).mkdir(parents=True, exist_ok=True)
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            for stop in reversed(self._on_stop):
+                stop()
+            if self.injector is not None:
+                self.injector.stop()
+            if self._bar is not None:
+                self._bar.close()
+            if self.coordinator is not None:
+                stop_process(self.coordinator)
+        finally:
+            codes = self.launcher.close()  # agents, then the recorder (the MCAP is complete after this)
+            if self._scratch is not None:
+                shutil.rmtree(self._scratch, ignore_errors=True)
+        if exc_type is None and self.result is not None:
+            self.result.exit_codes.update(codes)
+            self.record = self._summarise()
+            self.kind.score(self)
+
+    # what a kind uses while it drives
+    @property
+    def scratch(self) -> Path:
+        """A private folder for files handed to the run's processes, removed after they have stopped."""
+        if self._scratch is None:
+            self._scratch = Path(tempfile.mkdtemp(prefix="fluidswarm-run-"))
+        return self._scratch
+
+    def on_start(self, fn: Callable[[], None]) -> None:
+        """Call `fn` when the agents have been told to start (watchers that follow the run)."""
+        self._on_start.append(fn)
+
+    def on_stop(self, fn: Callable[[], None]) -> None:
+        """Call `fn` when the run ends, before the processes are stopped (in reverse order of registration)."""
+        self._on_stop.append(fn)
+
+    def add_coordinator(self, proc: subprocess.Popen) -> None:
+        """The run's coordinator process: stopped with the run, the target of a kill_coordinator failure."""
+        self.coordinator = proc
+
+    def record_to(self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None) -> Path | None:
+        """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either)."""
+        if path is None and self.options.out is None:
+            return None
+        self.mcap = Path(path) if path else Path(self.options.out) / f"{self.options.name}.mcap"
+        self.launcher.start_recorder(str(self.mcap), metadata, dt, target=target, image=image, live=self.options.live)
+        return self.mcap
+
+    def swarm(self, plan: SwarmPlan) -> SwarmResult:
+        """Run the plan's agents to their end, with the run's failures and its progress line."""
+        o, la = self.options, self.launcher
+        self.plan = plan
+        la.track_progress()
+        self.injector = FailureInjector(la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator,
+                                        spawn_late=self._spawn_late)
+        if o.progress:
+            self._bar = Progress(plan.steps, "step", rate_unit="steps")
+
+        def started(_launcher) -> None:
+            self.injector.start()
+            for fn in self._on_start:
+                fn()
+
+        self.result = run_swarm(plan.setup, plan.steps, launcher=la, on_started=started, progress=self._progress,
+                                per_agent=plan.per_agent, ids=plan.ids, swarm_ids=plan.swarm_ids,
+                                startup_timeout=plan.startup_timeout, run_timeout=plan.run_timeout, **plan.sync.spec())
+        return self.result
+
+    def _spawn_late(self, count: int) -> list[int]:
+        # Joiners start at the plan's point and adopt the swarm's step (docs/protocol.md).
+        p = self.plan
+        at = p.joiners_at if p.joiners_at is not None else tuple(p.setup.states[:, :2].mean(axis=0))
+        control = p.joiner_control if p.joiner_control is not None else p.setup.controls[0]
+        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, **p.sync.spec())
+
+    def _progress(self) -> None:
+        if self._bar is None:
+            return
+        la = self.launcher
+        injected = len(self.injector.log.injected) if self.injector else 0
+        self._bar.show(max(la.max_step, 0), f"alive {len(la.swarm.alive)}", f"failures {injected}")
+
+    def _summarise(self) -> RunRecord:
+        res, la, o, plan = self.result, self.launcher, self.options, self.plan
+        log = self.injector.log if self.injector else None
+        finals = dict(res.finals)
+        return RunRecord(
+            name=o.name, kind=self.kind.kind, agents=len(res.ids), steps=plan.steps, sync=plan.sync.mode,
+            run=la.run, router=la.endpoint, finished=sum(1 for r in finals.values() if r.done),
+            steps_per_second=res.steps_per_second(), startup_seconds=res.startup_seconds,
+            wall_seconds=res.wall_seconds, msgs_per_agent_step=res.msgs_per_agent_step(),
+            neighbours_per_agent=res.neighbours_per_agent(), neighbour_timeout_seconds=la.agent_timeout,
+            longest_stall_seconds=longest_stall(la.step_times),
+            failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
+            failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
+            mcap=str(self.mcap) if self.mcap else None, finals=finals)
+
+
+def busy_with_failures(run: Run) -> Callable[[], bool]:
+    """True while the run's failures are still to come or just happened (a formation must not count as
+    settled before they have all happened and the swarm had time to recover)."""
+    return lambda: run.injector is None or run.injector.busy()
+
