@@ -3,6 +3,7 @@ reports is coordinator/control/fidelity.py, the Zhang-Suen thinning behind it pe
 
 Modules, one job each:
 - `schemas`   — the Foxglove well-known JSON schemas and the packed per-particle layout.
+- `messages`  — the Foxglove message of each topic, built and validated from plain arrays.
 - `writer`    — `RunWriter`, the one thin MCAP writer the recorder process calls.
 - `live`      — `LiveServer`, the Foxglove WebSocket server that shows a run as it happens (`--live`).
 - `reader`    — `load_run` and the completeness `check`.
