@@ -25,7 +25,7 @@ def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_
     """An imitation of the V-sign photograph with 16 agents, watched by a client that subscribes to every channel."""
     port = free_port()
     run = subprocess.Popen(FLUIDSWARM + ["imitate", str(V_SIGN), "--agents", "16", "--steps", "400", "--out", str(tmp_path),
-                                         "--live", f"127.0.0.1:{port}"],
+                                         "--live", f"127.0.0.1:{port}", "--json"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     received: dict[int, float] = {}  # step -> when it arrived
     other: dict[str, list[dict]] = {}  # leaf -> messages
@@ -69,14 +69,15 @@ def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_
             run.wait()
     assert run.returncode == 0, err
     assert f"ws://127.0.0.1:{port}" in err
-    mcap = Path(next(line for line in out.splitlines() if line.startswith("mcap=")).split("=", 1)[1])
+    record = json.loads(out)  # --json: the run's record, the whole of stdout
+    mcap = Path(record["mcap"])
     complete, recorded, missing = check(mcap)
     assert complete and missing == 0 and recorded >= 100
     share = len(received) / recorded
     print(f"live: {len(received)} of {recorded} steps received ({share:.0%})")
     assert share >= 0.9
     # as they happened, not in a burst at the end: the arrivals span most of the run's stepping time
-    rate = float(next(line for line in out.splitlines() if line.startswith("steps_per_second=")).split("=")[1])
+    rate = record["steps_per_second"]
     arrivals = sorted(received.values())
     assert arrivals[-1] - arrivals[0] >= 0.5 * recorded / rate
     # the other channels, as in the MCAP: the photograph, the target's outline (both written before the
