@@ -79,8 +79,9 @@ def cell_pairs(positions: np.ndarray, active: np.ndarray, cell: float) -> tuple[
     return idx[a[keep]], idx[b[keep]]
 
 
-class PerParticleDriver:
-    """Steps every particle with `step_particle`, neighbours sorted by id, exactly as an agent would."""
+class Driver:
+    """A centralised solver of the swarm: particles sorted by id (an agent's neighbour order), one
+    `step()` a time step of all of them; `run(steps)` returns the states after the last."""
 
     def __init__(self, ids: Sequence[int], states: np.ndarray, controls: Sequence[ControlSource], params: SPHParams):
         order = np.argsort(np.asarray(ids), kind="stable")
@@ -89,6 +90,18 @@ class PerParticleDriver:
         self.controls = [controls[k] for k in order]
         self.params = params
         self.step_index = 0
+
+    def step(self) -> None:
+        raise NotImplementedError
+
+    def run(self, steps: int) -> np.ndarray:
+        for _ in range(steps):
+            self.step()
+        return self.states
+
+
+class PerParticleDriver(Driver):
+    """Steps every particle with `step_particle`, neighbours sorted by id, exactly as an agent would."""
 
     def step(self) -> None:
         params = self.params
@@ -103,22 +116,9 @@ class PerParticleDriver:
         self.states = new
         self.step_index += 1
 
-    def run(self, steps: int) -> np.ndarray:
-        for _ in range(steps):
-            self.step()
-        return self.states
 
-
-class VectorisedDriver:
+class VectorisedDriver(Driver):
     """All particles at once: pair arrays from a cell list, sums by `np.bincount`."""
-
-    def __init__(self, ids: Sequence[int], states: np.ndarray, controls: Sequence[ControlSource], params: SPHParams):
-        order = np.argsort(np.asarray(ids), kind="stable")
-        self.ids = np.asarray(ids)[order]
-        self.states = np.array(states, dtype=float)[order]
-        self.controls = [controls[k] for k in order]
-        self.params = params
-        self.step_index = 0
 
     def _control_arrays(self) -> dict[str, np.ndarray]:
         cs = [c.control(self.states[k], self.step_index) for k, c in enumerate(self.controls)]
@@ -162,8 +162,3 @@ class VectorisedDriver:
         new[~active] = s[~active]  # frozen particles stay as they were
         self.states = new
         self.step_index += 1
-
-    def run(self, steps: int) -> np.ndarray:
-        for _ in range(steps):
-            self.step()
-        return self.states

@@ -24,6 +24,7 @@ import numpy as np
 
 from agent.sph.params import SPHParams
 from agent.sph.particle import FROZEN, P, RHO, SXX, SXY, SYY, VX, VY, X, Y, apply_border, cap_speed
+from agent.sph.reference import Driver
 
 LAGS = ("protocol", "none")
 EQ38 = ("corrected", "printed")
@@ -113,8 +114,9 @@ def body_force(x, y, c: Controls):
     return mag * ex / safe, mag * ey / safe
 
 
-class AllPairsDriver:
-    """All particles, all pairs, one step at a time; states laid out as agent/sph's (N, NFIELDS) rows."""
+class AllPairsDriver(Driver):
+    """All particles, all pairs, one step at a time; states laid out as agent/sph's (N, NFIELDS) rows.
+    Its own equations (the point of it); only the stepping loop, `run`, is the reference drivers'."""
 
     def __init__(self, states: np.ndarray, controls, params: SPHParams, lag: str = "protocol",
                  eq38: str = "corrected", stress_rho: str = "previous"):
@@ -153,8 +155,3 @@ class AllPairsDriver:
         new[~active] = s[~active]
         self.states = new
         self.step_index += 1
-
-    def run(self, steps: int) -> np.ndarray:
-        for _ in range(steps):
-            self.step()
-        return self.states
