@@ -45,14 +45,8 @@ def centre_px(mask: np.ndarray) -> tuple[float, float]:
 
 def regions(mask: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """k compact regions of the silhouette: (centres (k, 2) in pixels (u, v), pixel counts (k,))."""
-    vs, us = np.nonzero(mask)
-    pts = np.stack([us, vs], axis=1).astype(np.float32)
-    k = max(1, min(k, len(pts)))
-    cv2.setRNGSeed(12345)
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.05)
-    _c, labels, centres = cv2.kmeans(pts, k, None, criteria, 4, cv2.KMEANS_PP_CENTERS)
-    counts = np.bincount(labels.ravel(), minlength=k)
-    return centres.astype(float), counts
+    centres, counts, _us, _vs, _labels = _region_labels(mask, k)
+    return centres, counts
 
 
 def region_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, seq: int = 1,
