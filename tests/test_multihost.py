@@ -1,20 +1,44 @@
-"""Agents on several "hosts" (network namespaces) joined by Zenoh routers; auth keeps rogues out."""
+"""Agents on several "hosts" (network namespaces) joined by Zenoh routers over mutual TLS; every session
+authenticates with its role's credentials (one users file on every host) and gets its role's rights only;
+rogues without the right credentials are locked out (docs/multi-host.md, docs/security.md)."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
 
 import pytest
 
+from agent.protocol.access import RunKey, write_users_file
 from fluidswarm.recording.reader import load_run
 from tests.netns import Hosts, NetnsUnavailable
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 FS = [sys.executable, "-m", "fluidswarm"]
-PORT = 7447
+PORT = 7447  # agents and launchers to their host's router (tcp)
+TLS_PORT = 7448  # router to router (tls)
+
+
+def _openssl(*args: str, cwd) -> None:
+    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True)
+
+
+def make_certificates(folder, routers: dict[str, str]) -> dict[str, tuple[str, str]]:
+    """A throw-away CA and, per router, a key and a certificate for its address signed by it (openssl CLI)."""
+    _openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca.key", "-out", "ca.pem", "-days", "2",
+             "-subj", "/CN=fluidswarm test CA", cwd=folder)
+    out = {}
+    for name, ip in routers.items():
+        _openssl("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}.key", "-out", f"{name}.csr",
+                 "-subj", f"/CN=router-{name}", cwd=folder)
+        (folder / f"{name}.ext").write_text(f"subjectAltName=IP:{ip}\n")
+        _openssl("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
+                 "-out", f"{name}.pem", "-days", "2", "-extfile", f"{name}.ext", cwd=folder)
+        out[name] = (str(folder / f"{name}.pem"), str(folder / f"{name}.key"))
+    return out
 
 
 @pytest.fixture
@@ -23,17 +47,22 @@ def hosts(tmp_path):
         h = Hosts()
     except NetnsUnavailable as exc:
         pytest.fail(f"multi-host tests need network namespaces: {exc}")
-    auth = tmp_path / "users.txt"
-    auth.write_text("swarm:s3cret\n")
+    users = tmp_path / "users.txt"
+    write_users_file(str(users), RunKey().users(40))  # agent-0..39, launcher, coordinator, recorder, router
     a, b = h.addr[("a", "b")], h.addr[("b", "a")]
     a_c = h.addr[("a", "c")]
-    cred = ["--user", "swarm", "--password", "s3cret"]
+    certs = make_certificates(tmp_path, {"a": a, "b": b})
+    ca = str(tmp_path / "ca.pem")
+    tls = lambda name: ["--tls-ca", ca, "--tls-cert", certs[name][0], "--tls-key", certs[name][1]]  # noqa: E731
+    auth = ["--auth-file", str(users)]
     h.popen("a", FS + ["router", "--listen", f"tcp/{a}:{PORT}", "--listen", f"tcp/{a_c}:{PORT}",
-                       "--auth-file", str(auth)] + cred, stdout=subprocess.PIPE, text=True)
-    h.popen("b", FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tcp/{a}:{PORT}",
-                       "--auth-file", str(auth)] + cred, stdout=subprocess.PIPE, text=True)
+                       "--listen", f"tls/{a}:{TLS_PORT}"] + auth + tls("a"), stdout=subprocess.PIPE, text=True)
+    # B reaches A only over TLS: if the TLS link did not come up, the split swarm could not start
+    h.popen("b", FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tls/{a}:{TLS_PORT}"] + auth + tls("b"),
+            stdout=subprocess.PIPE, text=True)
     time.sleep(2.0)
-    h.cred = cred
+    h.env = dict(os.environ, FLUIDSWARM_AUTH_FILE=str(users))  # each launcher hands its processes their lines
+    h.users = users
     try:
         yield h
     finally:
@@ -44,13 +73,16 @@ def figures(text: str) -> dict:
     return dict(line.split("=", 1) for line in text.split() if "=" in line)
 
 
-def test_split_swarm_reproduces_single_host_result_and_rogue_is_locked_out(hosts):
+def test_split_swarm_over_tls_reproduces_single_host_result_and_rogues_are_locked_out(hosts):
     a, b = hosts.addr[("a", "b")], hosts.addr[("b", "a")]
     rogue_target = hosts.addr[("a", "c")]
-    common = ["verify", "--agents", "40", "--steps", "120", "--run", "split"] + hosts.cred
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    rogue = hosts.popen("c", [sys.executable, "-c", ROGUE, f"tcp/{rogue_target}:{PORT}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    common = ["verify", "--agents", "40", "--steps", "120", "--run", "split"]
+    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=hosts.env)
+    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"], **kw)
+    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"], **kw)
+    # the rogue knows a real user name (agent-3) but not its password, then tries without any
+    rogue = hosts.popen("c", [sys.executable, "-c", ROGUE, f"tcp/{rogue_target}:{PORT}"],
+                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     out_a, err_a = pa.communicate(timeout=300)
     out_b, err_b = pb.communicate(timeout=300)
     r_out, r_err = rogue.communicate(timeout=60)
@@ -58,7 +90,7 @@ def test_split_swarm_reproduces_single_host_result_and_rogue_is_locked_out(hosts
     print(fa, fb, r_out.strip())
     assert pa.returncode == 0 and pb.returncode == 0, err_a + err_b
     assert float(fa["max_position_error"]) <= 1e-9 and float(fb["max_position_error"]) <= 1e-9
-    assert "rogue=locked_out" in r_out, r_out + r_err
+    assert "wrong_password=locked_out" in r_out and "no_credentials=locked_out" in r_out, r_out + r_err
 
 
 def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(hosts, tmp_path):
@@ -66,11 +98,10 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     mcap = tmp_path / "a.mcap"
     # Enough steps that the cut comes mid-run (the compiled agents do 500 steps in well under the 9 s below).
     steps = 4000
-    common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0"] + hosts.cred
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)],
-                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"],
-                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0"]
+    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=hosts.env)
+    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)], **kw)
+    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"], **kw)
     time.sleep(9.0)  # start-up, then some lockstep steps with both hosts
     router_b = hosts.procs[1]
     router_b.kill()
@@ -87,20 +118,22 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
 
 ROGUE = r'''
 import json, sys, zenoh
-conf = zenoh.Config()
-conf.insert_json5("mode", '"client"')
-conf.insert_json5("connect/endpoints", json.dumps([sys.argv[1]]))
-conf.insert_json5("connect/timeout_ms", "5000")
-conf.insert_json5("scouting/multicast/enabled", "false")
-try:
-    s = zenoh.open(conf)
-except Exception as exc:
-    print("rogue=locked_out", str(exc).splitlines()[0][:80])
-    sys.exit(0)
-import time
-for k in range(200):
-    s.put("fluidswarm/split/state/0/0", b"x" * 88)
-    s.put("fluidswarm/split/command", b"{}")
-    time.sleep(0.02)
-print("rogue=connected")
+def attempt(user, password):
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"client"')
+    conf.insert_json5("connect/endpoints", json.dumps([sys.argv[1]]))
+    conf.insert_json5("connect/timeout_ms", "5000")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if user:
+        conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+        conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    try:
+        s = zenoh.open(conf)
+    except Exception as exc:
+        return "locked_out"
+    for k in range(100):
+        s.put("fluidswarm/split/state/0/0/3", b"x" * 88)
+        s.put("fluidswarm/split/ctl/stop", b"stop")
+    return "connected"
+print("wrong_password=" + attempt("agent-3", "not-the-password"), "no_credentials=" + attempt("", ""))
 '''

@@ -39,6 +39,9 @@ PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
 # Measurements only (docs/benchmarks/security.md): "acl" (default) credentials and access control, "auth"
 # credentials only, "none" an open router as before issue 18.
 LEVEL_ENV = "FLUIDSWARM_ACCESS"
+# A launcher that connects to a multi-host run's router reads its processes' credentials from this users file
+# (the routers hold the same file; docs/multi-host.md)
+AUTH_FILE_ENV = "FLUIDSWARM_AUTH_FILE"
 LEVELS = ("acl", "auth", "none")
 
 ROLES = ("launcher", "coordinator", "recorder", "router")
@@ -196,9 +199,17 @@ def acl_config(users: list[str]) -> dict:
                   "recorder": ["recorder", "recorder-listens"], "router": ["router"]}
     subjects, policies = [], []
     for role in ROLES:
-        if role in users:
-            subjects.append({"id": role, "usernames": [role]})
-            policies.append({"id": role, "rules": role_rules[role] + ["receive"], "subjects": [role]})
+        if role not in users:
+            continue
+        subjects.append({"id": role, "usernames": [role]})
+        who = [role]
+        if role == "router":
+            # A router sees no user name on the link it opened to another router (only the accepting side
+            # authenticates the other), so routers are also known by their link: mutual TLS, i.e. a
+            # certificate of the swarm's CA (fluidswarm router --tls-*); agents and launchers use tcp.
+            subjects.append({"id": "router-over-tls", "link_protocols": ["tls"]})
+            who.append("router-over-tls")
+        policies.append({"id": role, "rules": role_rules[role] + ["receive"], "subjects": who})
     for i in _agent_ids(users):
         rules.append(_agent_rule(i))
         subjects.append({"id": f"agent-{i}", "usernames": [f"agent-{i}"]})
@@ -220,8 +231,9 @@ class LaunchAccess:
     """The credentials a launcher hands its processes (agents, recorder, coordinator), in their environment.
 
     `embedded()`: fresh for this run, for the launcher's own router (users file + ACL, per FLUIDSWARM_ACCESS).
-    `client(...)`: a launcher connecting to a router of a multi-host run: with a users file, each process gets
-    its role's line (the routers hold the same file); with only `user`/`password`, every process shares them.
+    `client(...)`: a launcher connecting to a router of a multi-host run: with a users file (`users_file` or
+    $FLUIDSWARM_AUTH_FILE), each process gets its role's line (the routers hold the same file); with only
+    `user`/`password`, every process shares them (a router without per-process rights).
     """
 
     def __init__(self, credential_of, own: Credential | None = None, users_file: UsersFile | None = None,
@@ -245,8 +257,13 @@ class LaunchAccess:
 
     @classmethod
     def client(cls, user: str = "", password: str = "", users_file: str = "") -> "LaunchAccess":
+        source = "--auth-file" if users_file else AUTH_FILE_ENV
+        users_file = users_file or os.environ.get(AUTH_FILE_ENV, "")
         if users_file:
-            table = {c.user: c for c in read_users_file(users_file)}
+            try:
+                table = {c.user: c for c in read_users_file(users_file)}
+            except AuthFileError as exc:
+                raise AuthFileError(f"{source} {exc}") from None
             own = table.get("launcher")
             if own is None:
                 raise AuthFileError(f"{users_file}: no 'launcher' user (this launcher's own credentials)")
