@@ -23,6 +23,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.session import client_config
+from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER
 
 
 def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: int | None = None):
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
     ap.add_argument("--observations", help="camera: folder for first.npz / latest.npz (the launcher reads them)")
     ap.add_argument("--agents", type=int, required=True)
-    ap.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"])
+    ap.add_argument("--controller", default=DEFAULT_CONTROLLER, choices=CONTROLLERS)
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")

@@ -8,15 +8,28 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field, fields
+from enum import StrEnum
 from pathlib import Path
 
 from agent.sph.params import SPHParams
 from agent.protocol.errors import UserError
+from agent.protocol.spec import MODES
+from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
 
-CONTROLLERS = ("fill", "region", "pca", "ann", "none")
-SYNC_MODES = ("lockstep", "async")
+CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
+SYNC_MODES = MODES
 FAILURE_KINDS = ("kill", "freeze", "drop", "kill_coordinator", "late_join")
-EXPERIMENTS = ("imitate", "branching", "drag")
+
+
+class Experiment(StrEnum):
+    """What a scenario runs: an imitation of its input, or one of the thesis' physics experiments."""
+
+    IMITATE = "imitate"
+    BRANCHING = "branching"
+    DRAG = "drag"
+
+
+EXPERIMENTS = tuple(e.value for e in Experiment)
 
 
 @dataclass(frozen=True)
@@ -134,7 +147,7 @@ def load_scenario(path: str | Path) -> Scenario:
                       ("neighbour_timeout", float)):
         if key in raw:
             kw[key] = _typed(file, key, raw[key], kind)
-    if kw.get("experiment", "imitate") not in EXPERIMENTS:
+    if kw.get("experiment", Experiment.IMITATE) not in EXPERIMENTS:
         raise UserError(f"{file}: key 'experiment': must be one of {EXPERIMENTS}, got {kw['experiment']!r}")
     if kw.get("controller", "fill") not in CONTROLLERS:
         raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
@@ -157,7 +170,7 @@ def load_scenario(path: str | Path) -> Scenario:
             raise UserError(f"{file}: key '{key}': must be > 0, got {kw[key]}")
     if kw.get("neighbour_timeout", 0.0) < 0:
         raise UserError(f"{file}: key 'neighbour_timeout': must be > 0, got {kw['neighbour_timeout']}")
-    if kw.get("experiment", "imitate") == "imitate" and not kw.get("input"):
+    if kw.get("experiment", Experiment.IMITATE) == Experiment.IMITATE and not kw.get("input"):
         raise UserError(f"{file}: key 'input': an imitation scenario needs an input image, folder or video")
     sph = _typed(file, "sph", raw.get("sph", {}), dict)
     allowed_sph = {f.name for f in fields(SPHParams)}
@@ -167,7 +180,7 @@ def load_scenario(path: str | Path) -> Scenario:
     except (ValueError, TypeError) as exc:
         raise UserError(f"{file}: key 'sph': {exc}") from None
     for key in ("beta", "mu"):  # an accepted key must act: in an imitation the gesture command sets them
-        if key in sph and kw.get("experiment", "imitate") == "imitate":
+        if key in sph and kw.get("experiment", Experiment.IMITATE) == Experiment.IMITATE:
             raise UserError(f"{file}: key 'sph.{key}': an imitation's stiffness and viscosity are set per class "
                             f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)")
     kw["sph"] = sph

@@ -5,12 +5,23 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 
 from agent.protocol.keys import valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
 
-MODES = ("lockstep", "async")
+
+
+class SyncMode(StrEnum):
+    """How the agents keep step: lockstep (a step waits for every neighbour's previous one: exact, the
+    reference drivers' result) or async (each agent at its own rate on its neighbours' latest states)."""
+
+    LOCKSTEP = "lockstep"
+    ASYNC = "async"
+
+
+MODES = tuple(m.value for m in SyncMode)
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields, replace
+from enum import StrEnum
 
-BORDER_POLICIES = ("freeze", "reflect")
+
+
+class Border(StrEnum):
+    """What happens to a particle that leaves the domain (SPHParams.border)."""
+
+    FREEZE = "freeze"
+    REFLECT = "reflect"
+
+
+BORDER_POLICIES = tuple(b.value for b in Border)
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from enum import StrEnum
 
 import numpy as np
 
@@ -41,8 +42,20 @@ class Imitation:
     observation: object = None
 
 
-CONTROLLERS = ("fill", "region", "pca", "ann")
-DEFAULT_CONTROLLER = "fill"
+
+
+class Controller(StrEnum):
+    """How a silhouette becomes a command: fill (the shape itself, docs/fill.md), region (k-means regions
+    as waypoints), pca (the eigen classifier's gesture template), ann (the thesis' network's force)."""
+
+    FILL = "fill"
+    REGION = "region"
+    PCA = "pca"
+    ANN = "ann"
+
+
+CONTROLLERS = tuple(c.value for c in Controller)
+DEFAULT_CONTROLLER = Controller.FILL.value
 
 
 def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDomain:
