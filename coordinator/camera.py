@@ -25,6 +25,10 @@ import numpy as np
 
 from coordinator.control.observe import Observation, observe
 from perception.tracking import BoxKalman, box_to_centre
+from coordinator.control.fill import ShapeError
+from coordinator.control.imitation_setup import build_command, transform_for
+from perception.segmentation import SegmentationError
+from perception.stream import FrameStream
 
 # observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
 CLIP = Path("camera.mp4")
@@ -56,8 +60,6 @@ class LiveObserver:
         self.frames: deque = deque(maxlen=max(3, window))
 
     def observe(self, frame: np.ndarray) -> Observation | None:
-        from perception.segmentation import SegmentationError
-
         if self.frames and self.frames[-1].shape != frame.shape:
             self.frames.clear()  # the source changed its picture size: start again
         self.frames.append(frame)
@@ -137,10 +139,6 @@ def run_camera(source: str, stream_params, n_agents: int, controller: str, secre
                period: float, observations: Path | None, rule: ChangeRule = ChangeRule()) -> None:
     """Observe `source` until `stop`, publishing signed commands on `pub` (republished every `period` s
     by a side thread, so late joiners get one while a frame is being read). Raises StreamError."""
-    from coordinator.control.fill import ShapeError
-    from coordinator.control.imitation_setup import build_command, transform_for
-    from perception.stream import FrameStream
-
     current: list[bytes] = []
 
     def republish() -> None:

@@ -23,7 +23,14 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.session import client_config
-from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER
+from coordinator.control.imitation_setup import (
+    CONTROLLERS, DEFAULT_CONTROLLER, build_command, observations_for, transform_for,
+)
+from agent.protocol.command import parse_body
+from coordinator.camera import run_camera
+from perception.io import InputError
+from perception.segmentation import SegmentationError
+from perception.stream import StreamError, StreamParams
 
 
 def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: int | None = None):
@@ -35,8 +42,6 @@ def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: in
 
 def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | None = None):
     """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
-    from coordinator.control.imitation_setup import observations_for, transform_for
-
     _frames, obs, k = observations_for(path, frame)
     shown = [obs[k]] if frame is not None else obs
     return commands_along(shown, transform_for(shown[0].mask, n_agents, controller), n_agents, controller)
@@ -45,8 +50,6 @@ def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | N
 def commands_along(shown, transform, n_agents: int, controller: str = "fill"):
     """[(index of the first observation it holds for, command)]: a new command whenever the recognised
     gesture changes between consecutive observations `shown`, all in one image -> domain `transform`."""
-    from coordinator.control.imitation_setup import build_command
-
     out = []
     last = None
     for i, o in enumerate(shown):
@@ -113,8 +116,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.camera:
         return _camera(args, secret)
-    from perception.io import InputError
-    from perception.segmentation import SegmentationError
 
     try:
         commands = (_load_commands(args.commands) if args.commands
@@ -161,8 +162,6 @@ def _load_commands(path):
     """The file `write_commands` wrote, each body validated as the agents validate a command."""
     import json
 
-    from agent.protocol.command import parse_body
-
     with open(path) as f:
         items = json.load(f)
     if not isinstance(items, list) or not items or items[0]["first"] != 0:
@@ -187,9 +186,6 @@ def _declare_command_publisher(session, run: str):
 def _camera(args, secret: bytes) -> int:
     """The live source (coordinator/camera.py): commands as the observed gesture changes."""
     from pathlib import Path
-
-    from coordinator.camera import run_camera
-    from perception.stream import StreamError, StreamParams
 
     try:
         params = StreamParams(fps=args.fps, stall_seconds=args.stall_seconds)

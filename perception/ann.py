@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from perception.io import InputError
+from perception.skeleton import feature_vector
 
 DATA = Path(__file__).resolve().parent / "data"
 TRAINING_PATH = DATA / "ann_training.json"
@@ -146,8 +147,6 @@ def build_training_set() -> list[dict]:
     """Pairs from: the thesis' printed examples (§3.2, §3.4) and drawn template shapes (lines, Vs, Us and
     arcs of several sizes) whose feature vectors come from `perception.skeleton.feature_vector`."""
     import cv2
-
-    from perception.skeleton import feature_vector
 
     pairs = []
     for fv, src in (([1, 0, 0, 0, 0, 0], "thesis §3.4.1 horizontal pointing, fv [1 0 0 0 0 0], force [2 0]"),

@@ -1,4 +1,9 @@
-"""`fluidswarm eval-classifier` (thesis Tables 4.1-4.2 style report) and `fluidswarm perceive`."""
+"""`fluidswarm eval-classifier` (thesis Tables 4.1-4.2 style report) and `fluidswarm perceive`.
+
+The command line imports every package's `commands` to build its parser, so perception's modules (OpenCV,
+scipy, the classifier) are imported inside the subcommands that use them: `fluidswarm --help` and the
+other subcommands start without them.
+"""
 
 from __future__ import annotations
 

@@ -14,6 +14,13 @@ import cv2
 import numpy as np
 
 from perception.ellipses import Ellipse, body_regions, hand_regions
+from perception.ann import GestureANN
+from perception.eigen import EigenClassifier, default_model
+from perception.features import to_work_size
+from perception.io import load_frames, load_image
+from perception.segmentation import hand_mask, person_regions
+from perception.skeleton import feature_vector
+from perception.tracking import track_boxes
 
 SHEET_FRAMES = 12
 COLOURS = {"torso": (0, 200, 0), "head": (0, 200, 200), "left_arm": (0, 0, 255), "right_arm": (255, 0, 0),
@@ -50,13 +57,6 @@ def _outline(img: np.ndarray, mask: np.ndarray, scale: float, colour=(0, 255, 25
 
 
 def perceive_hand(path: Path, model: str | None = None) -> tuple[list[str], np.ndarray]:
-    from perception.ann import GestureANN
-    from perception.eigen import EigenClassifier, default_model
-    from perception.features import to_work_size
-    from perception.io import load_image
-    from perception.segmentation import hand_mask
-    from perception.skeleton import feature_vector
-
     img = load_image(path)
     if max(img.shape[:2]) > 400:  # work at a sane size; coordinates are reported in this picture's pixels
         f = 400 / max(img.shape[:2])
@@ -94,10 +94,6 @@ def perceive_hand(path: Path, model: str | None = None) -> tuple[list[str], np.n
 
 
 def perceive_clip(path: Path) -> tuple[list[str], np.ndarray]:
-    from perception.io import load_frames
-    from perception.segmentation import person_regions
-    from perception.tracking import track_boxes
-
     frames = load_frames(path)
     if len(frames) < 3:
         raise ValueError(f"a clip needs at least 3 frames, got {len(frames)}")

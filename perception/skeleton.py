@@ -29,6 +29,7 @@ from collections import deque
 
 import cv2
 import numpy as np
+from perception.ellipses import PALM_SCALE, hand_regions
 
 SPUR = 0.12  # prune skeleton spurs shorter than this share of the silhouette's longer side
 LINE_TOL = 0.06  # a branch is straight if no point is farther than this share of its length from a line
@@ -220,8 +221,6 @@ def skeleton(mask: np.ndarray) -> np.ndarray:
 
 def _fingers_only(mask: np.ndarray) -> np.ndarray:
     """A hand photograph's silhouette without the forearm: drop what lies beyond the palm on the wrist side."""
-    from perception.ellipses import PALM_SCALE, hand_regions
-
     r = hand_regions(mask)
     side = r["wrist_side"]
     if side is None:

@@ -23,6 +23,10 @@ import numpy as np
 
 from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.pca import _hand_frame, pca_command
+from perception.ann import GestureANN
+from perception.ellipses import hand_regions
+from perception.skeleton import feature_vector
 
 SPLIT_MIN = 0.25
 ALPHA_PER_FORCE = 2.0
@@ -31,25 +35,17 @@ BETA_FINGER = 50.0
 
 def ann_force(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(feature vector (6,), [F_along, F_split])."""
-    from perception.ann import GestureANN
-    from perception.skeleton import feature_vector
-
     fv = feature_vector(mask)
     return fv, np.asarray(GestureANN.load()(fv), float)
 
 
 def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> GestureCommand:
-    from coordinator.control.pca import _hand_frame
-
     if obs.kind == "body":  # no finger skeleton: fall back to the PCA template of the pose
-        from coordinator.control.pca import pca_command
-
         cmd = pca_command(obs, transform, n_agents, seq)
         return GestureCommand(seq=cmd.seq, gesture=cmd.gesture, n_agents=cmd.n_agents, classes=cmd.classes,
                               beta=cmd.beta, mu=cmd.mu, extra={**cmd.extra, "controller": "ann(pose template)"})
     fv, (f_along, f_split) = ann_force(obs.mask)
     (pu, pv), radius, up = _hand_frame(obs.mask)
-    from perception.ellipses import hand_regions
 
     tips = hand_regions(obs.mask)["critical_points"]["finger_tips"]
     length = max([math.hypot(t[0] - pu, t[1] - pv) for t in tips] + [3.0 * radius])

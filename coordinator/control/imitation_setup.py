@@ -14,9 +14,16 @@ from agent.protocol.command import GestureCommand
 from coordinator.control.fill import (ARM_BETA, ARM_MU, AREA_PER_PARTICLE as FILL_AREA, FINGER_BETA, FINGER_MU,
                                       INITIAL_SPACING as FILL_SPACING, fill_command, material_zones, rest_density)
 from perception.ellipses import fit_ellipse, hand_regions
-from coordinator.control.region import AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command
+from coordinator.control.region import (
+    AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command,
+)
 from coordinator.control.geometry import ImageToDomain
 from perception.segmentation import hand_mask
+from coordinator.control.ann import ann_command
+from coordinator.control.observe import Observation, hand_label, is_clip, observe
+from coordinator.control.pca import pca_command
+from coordinator.control.route import class_of
+from perception.io import InputError, load_frames
 
 DEFAULT_STEPS = 700
 
@@ -92,12 +99,8 @@ def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str 
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
         return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
     if controller == "pca":
-        from coordinator.control.pca import pca_command
-
         return pca_command(obs, transform, n_agents, seq=seq)
     if controller == "ann":
-        from coordinator.control.ann import ann_command
-
         return ann_command(obs, transform, n_agents, seq=seq)
     raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
 
@@ -121,7 +124,6 @@ def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFA
     pos += centre - pos.mean(axis=0)
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
     controls = [Control(beta=command.beta, mu=command.mu) for _ in range(n_agents)]
-    from coordinator.control.route import class_of
 
     shares = [c.share for c in command.classes]
     classes = np.array([class_of(i, n_agents, shares) for i in range(n_agents)])
@@ -131,17 +133,12 @@ def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFA
 
 def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER) -> Imitation:
     """A hand photograph -> its imitation set-up."""
-    from coordinator.control.observe import Observation, hand_label
-
     mask = hand_mask(frame_bgr)
     return prepare_observation(Observation("hand", mask, hand_label(mask), frame_bgr), n_agents, seq, controller)
 
 
 def observations_for(path, frame: int | None = None):
     """(all frames, their observations, the index of the frame to imitate)."""
-    from coordinator.control.observe import is_clip, observe
-    from perception.io import InputError, load_frames
-
     frames = load_frames(path)
     if frame is not None and not 0 <= frame < len(frames):
         raise InputError(f"{path}: --frame {frame} out of range (the input has {len(frames)} frames)")

@@ -16,6 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from perception.io import is_clip
+from perception.ellipses import fit_ellipse
+from perception.segmentation import hand_mask, person_regions
+from perception.skeleton import NAMES, feature_vector
 
 
 @dataclass
@@ -38,7 +41,6 @@ def arm_pose(arm: np.ndarray | None, head_row: float) -> str:
     does not leave the torso's outline hangs along it)."""
     if arm is None or not arm.any():
         return "down"
-    from perception.ellipses import fit_ellipse
 
     e = fit_ellipse(arm)
     if e is not None and min(e.orientation_deg, 180 - e.orientation_deg) <= SIDE_MAX_DEG:
@@ -60,8 +62,6 @@ def body_label(parts: dict, head_row: float | None = None) -> str:
 
 def hand_label(mask: np.ndarray) -> str:
     try:
-        from perception.skeleton import NAMES, feature_vector
-
         fv = feature_vector(mask)
     except Exception:  # a silhouette the skeleton cannot read is still a gesture
         return "hand"
@@ -72,8 +72,6 @@ def hand_label(mask: np.ndarray) -> str:
 def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
     """One Observation per frame. Raises perception's InputError / SegmentationError."""
     if is_clip(path, frames):
-        from perception.segmentation import person_regions
-
         out = []
         for i, (f, r) in enumerate(zip(frames, person_regions(frames))):
             head_row = float(np.nonzero(r.head)[0].mean()) if r.head is not None else None
@@ -87,7 +85,6 @@ def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
                      if v is not None and v.any()}
             out.append(Observation("body", r.silhouette.astype(bool), body_label(parts, head_row), f, parts, i))
         return out
-    from perception.segmentation import hand_mask
 
     out = []
     for i, f in enumerate(frames):

@@ -21,6 +21,8 @@ import numpy as np
 
 from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from coordinator.control.geometry import ImageToDomain
+from perception.eigen import default_model
+from perception.ellipses import hand_regions
 
 F, A = 50.0, 20.0  # stiffness of fingers and arms after the critical point
 PALM = ("palm", 0.4, [(0.0, 0.0)], 1.1, None)
@@ -90,8 +92,6 @@ def body_template(label: str) -> str:
 
 def _hand_frame(mask: np.ndarray):
     """(palm centre (u, v) px, R px, unit 'up' vector in pixel coordinates (v grows down), finger angle)."""
-    from perception.ellipses import hand_regions
-
     r = hand_regions(mask)
     px, py = r["critical_points"]["palm_centre"]
     radius = max(float(r["palm_radius"]), 1.0)
@@ -122,8 +122,6 @@ def _place(template, origin_px, unit_px: float, up_px: np.ndarray, transform: Im
 
 
 def classify_hand(frame_bgr) -> str:
-    from perception.eigen import default_model
-
     return str(default_model().predict([frame_bgr])[0])
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from agent.fill import inside, nearest_point, zone_material
 from agent.sph.particle import X, Y, Control
+from agent.protocol.command import CommandRejected, decode
 
 
 def class_counts(n: int, shares) -> list[int]:
@@ -107,8 +108,6 @@ class CommandFollower:
     reference drivers."""
 
     def __init__(self, spec):
-        from agent.protocol.command import decode  # the wire format lives with the coordinator
-
         self._decode = decode
         self.secret = bytes.fromhex(spec.secret or os.environ.get("FLUIDSWARM_SECRET", ""))
         self.agent_id = spec.id
@@ -123,8 +122,6 @@ class CommandFollower:
         self.first_command_at: float | None = None
 
     def offer(self, payload: bytes) -> str | None:
-        from agent.protocol.command import CommandRejected
-
         # The coordinator republishes the current command every 0.2 s, and a captured old command replayed
         # is the same bytes again: both are settled without decoding (a flood must not starve the agent).
         if payload == self._current_payload:

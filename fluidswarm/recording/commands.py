@@ -1,4 +1,5 @@
-"""The `fluidswarm replay` subcommand."""
+"""The `fluidswarm replay` subcommand. `replay` (matplotlib, Pillow) is imported when the subcommand runs:
+the command line imports every `commands` module to build its parser."""
 
 from __future__ import annotations
 

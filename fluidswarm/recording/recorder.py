@@ -31,6 +31,9 @@ from agent.sph.particle import P, RHO, VX, VY, X, Y
 from agent.protocol.wire import decode_state
 from coordinator.control.fidelity import fidelity
 from fluidswarm.recording.writer import RunWriter
+from agent.protocol.errors import UserError
+from coordinator.control.geometry import ImageToDomain
+from fluidswarm.recording.live import LiveServer, parse_address
 
 RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
 QUIET_SECONDS = 3.0  # ... or once nothing new came for this long
@@ -248,9 +251,6 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, stop)
     live = None
     if args.live:
-        from agent.protocol.errors import UserError
-        from fluidswarm.recording.live import LiveServer, parse_address
-
         try:
             live = LiveServer(parse_address(args.live), args.run)
         except (UserError, RuntimeError) as exc:
@@ -259,8 +259,6 @@ def main(argv: list[str] | None = None) -> int:
     writer = RunWriter(args.out, metadata, live=live)
     target = None
     if args.target:
-        from coordinator.control.geometry import ImageToDomain
-
         with np.load(args.target) as t:
             target = (t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))
         writer.write_target(0.0, *target)

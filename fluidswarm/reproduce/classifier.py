@@ -10,6 +10,8 @@ import numpy as np
 
 from fluidswarm.reproduce import plots
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from perception.dataset import SHARED_HANDS, load_folder, shared_split
+from perception.eigen import EigenClassifier
 
 CLASSES = ["0", "1", "2", "4", "5"]
 COMPONENTS = (5, 15, 30, 35, 50)
@@ -20,8 +22,6 @@ THESIS_TEST_S = {5: 0.49, 15: 0.51, 30: 0.52, 50: 0.64}
 
 def rates(tr_feat, ytr, te_feat, yte, components) -> dict[int, tuple[float, float, float]]:
     """{k: (rate %, train s, test s)} of the thesis' method (baseline: pixels, PCA, nearest neighbour)."""
-    from perception.eigen import EigenClassifier
-
     out = {}
     for k in components:
         k_eff = min(k, len(ytr))
@@ -36,8 +36,6 @@ def rates(tr_feat, ytr, te_feat, yte, components) -> dict[int, tuple[float, floa
 
 def thesis_sized(images, labels, repeats: int, seed: int = 2012):
     """Rates over `repeats` random thesis-sized splits: 10 training and 3 test images per class (50 / 15)."""
-    from perception.eigen import EigenClassifier
-
     feats = EigenClassifier("baseline").features(images)
     rng = np.random.default_rng(seed)
     runs = []
@@ -52,8 +50,6 @@ def thesis_sized(images, labels, repeats: int, seed: int = 2012):
 
 
 def measure(ctx: Context) -> list[Group]:
-    from perception.dataset import SHARED_HANDS
-
     g = Group("Eigen-image classifier (thesis §4.5, Tables 4.1-4.2)")
     if not SHARED_HANDS.is_dir():
         g.claims.append(Claim("§4.5, Tables 4.1-4.2", "recognition rate and time vs principal components",
@@ -62,9 +58,6 @@ def measure(ctx: Context) -> list[Group]:
                               "needs ../shared"))
         return [g]
     from threadpoolctl import threadpool_limits
-
-    from perception.dataset import load_folder, shared_split
-    from perception.eigen import EigenClassifier
 
     repeats = 5 if ctx.quick else 30
     with threadpool_limits(1):

@@ -17,6 +17,8 @@ from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
 from fluidswarm.reproduce import plots
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.region import body_region_command
 
 INPUTS = Path(__file__).resolve().parents[2] / "scenarios" / "inputs"
 GESTURES = (("scissor", "digit2_IMG_1140.JPG"), ("cylindrical/hook", "digit0_IMG_1118.JPG"),
@@ -106,9 +108,6 @@ def pressure_switch(ctx: Context, g: Group) -> None:
 
 def imitation(path: Path, n: int, controller: str, frame: int | None = None, beta_arm: float | None = None):
     """(setup, followers) of an imitation of `path` on the reference driver."""
-    from coordinator.control.imitation_setup import prepare_input
-    from coordinator.control.region import body_region_command
-
     im = prepare_input(str(path), n, controller=controller, frame=frame)
     command = im.command
     if beta_arm is not None:

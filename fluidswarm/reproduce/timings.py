@@ -10,6 +10,9 @@ from pathlib import Path
 
 from agent.sph.reference import VectorisedDriver
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.route import followers_for
+from fluidswarm.reproduce.gestures import INPUTS
 
 RESULTS = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "results.json"
 THESIS = {"scissor": (187, 126), "cylindrical": (214, 136), "pinching": (219, 141)}  # step size 7, 10
@@ -43,9 +46,6 @@ def measure(ctx: Context) -> list[Group]:
             "different machine, controller (fill, ends when settled) and decentralised agents over Zenoh versus a "
             "2012 centralised simulation; ours is faster on 2 cores", "latest bench (agent processes)"))
     # Reading: the step size is the time step, so a run to the same simulated time costs 1/dt.
-    from coordinator.control.route import followers_for
-    from coordinator.control.imitation_setup import prepare_input
-    from fluidswarm.reproduce.gestures import INPUTS
 
     n_p, sim_seconds = (40, 4.0) if ctx.quick else (100, 12.0)
     walls, steps = {}, {}
