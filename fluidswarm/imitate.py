@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from agent.launcher import die_with_parent
+from agent.supervisor import die_with_parent
 from coordinator.control.fidelity import fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, observations_for, \
     prepare_observation

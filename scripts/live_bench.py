@@ -22,7 +22,7 @@ from pathlib import Path
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from agent.launcher import free_port
+from agent.router_host import free_port
 from fluidswarm.recording.reader import check
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from agent.launcher import free_port
+from agent.router_host import free_port
 from fluidswarm.recording.reader import check, load_run
 from tests.foxglove_client import FoxgloveClient
 

@@ -26,6 +26,7 @@ VERSION = 1
 KIND_STATE = 1
 _HEADER = struct.Struct("<BBHIIHH")
 _RECORD = struct.Struct("<BBHIIHH9d")
+_ID_STEP = struct.Struct("<II")  # agent id and step, at offset 4
 _FLAG_VALUE = (0.0, 1.0)  # flags bit 0 (frozen) as the state's FROZEN field
 STATE_SIZE = _RECORD.size  # 88
 MAX_ID = 2**31 - 1
@@ -40,6 +41,14 @@ REJECT_VALUE = "value"
 def encode_state(agent_id: int, step: int, state, particle_class: int = 0) -> bytes:
     flags = 1 if state[FROZEN] != 0.0 else 0
     return _RECORD.pack(VERSION, KIND_STATE, flags, agent_id, step, particle_class, 0, *map(float, state[:9]))
+
+
+def peek_id_step(data: bytes) -> tuple[int, int] | None:
+    """(agent_id, step) of a state record without decoding its values (observers that only follow the
+    run's progress), or None if it is not a record of this length."""
+    if len(data) != STATE_SIZE:
+        return None
+    return _ID_STEP.unpack_from(data, 4)
 
 
 def decode_state(data: bytes):

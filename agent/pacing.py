@@ -1,0 +1,136 @@
+"""Following a run's progress and pacing it: the launcher's view of the steps, and ctl/clock, end, gone.
+
+A passive observer of every state message (like the recorder): the step each agent is at, when each step
+was first seen, the newest state record of each agent (for watchers such as coordinator/control/settle.py).
+From that, a thread publishes the pacing clock (the slowest live agent's step), relays lost agents on
+ctl/gone and repeats ctl/end (docs/protocol.md).
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+import time
+
+import zenoh
+
+from agent.protocol import keys
+from agent.protocol.wire import peek_id_step
+
+_STEP = struct.Struct("<Q")  # ctl/clock and ctl/end: a step, u64 little-endian
+_ID = struct.Struct("<I")  # ctl/gone: an agent id, u32 little-endian
+# s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
+# every swarm at ~30 steps/s; the compiled agents run faster than that.
+CLOCK_PERIOD = 0.02
+CLOCK_REPEAT = 1.0
+AHEAD = 1000  # steps: a state further ahead of the newest step seen is not believed (untrusted input)
+
+
+class Pacer:
+    """`swarm` (agent/supervisor.py Swarm): its alive agents and lost ones; `agent_timeout` [s]: an agent
+    silent this long (frozen) does not hold the clock back."""
+
+    def __init__(self, swarm, agent_timeout: float, clock_period: float = CLOCK_PERIOD):
+        self.swarm, self.agent_timeout, self.clock_period = swarm, agent_timeout, clock_period
+        self.session, self.run = swarm.session, swarm.run
+        self.step_times: dict[int, float] = {}  # step -> wall time its first state was seen
+        self.max_step = -1
+        self.agent_steps: dict[int, tuple[int, float]] = {}  # id -> (its newest step, when it was seen)
+        self.newest: dict[int, bytes] = {}  # id -> its newest state record, undecoded (watchers decode it)
+        self.end_step: int | None = None
+        self._states = None
+        self._stop = threading.Event()
+
+    def start(self) -> None:
+        """Start following and pacing (idempotent)."""
+        if self._states is not None:
+            return
+        # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
+        # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
+        # router's receiving threads (N messages per step).
+        self._states = self.session.declare_subscriber(keys.state_all_expr(self.run), zenoh.handlers.RingChannel(1 << 16))
+        threading.Thread(target=self._clock, daemon=True).start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._states is not None:
+            try:
+                self._states.undeclare()
+            except Exception:
+                pass
+
+    def _on_state(self, sample) -> None:
+        data = sample.payload.to_bytes()
+        peek = peek_id_step(data)
+        if peek is None:
+            return
+        agent_id, step = peek
+        if keys.id_from_key(str(sample.key_expr)) != agent_id:
+            return  # under another agent's key: a forgery (docs/security.md)
+        now = time.monotonic()
+        last = self.agent_steps.get(agent_id)
+        if (last is None or step > last[0]) and step <= self.max_step + AHEAD:
+            self.agent_steps[agent_id] = (step, now)
+            self.newest[agent_id] = data
+        if step not in self.step_times and step <= self.max_step + AHEAD:
+            self.step_times[step] = now
+            if step > self.max_step:
+                self.max_step = step
+
+    def _clock(self) -> None:
+        """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
+
+        Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
+        swarm and meet it again at a different step; with the clock they stay within CLOCK_LEAD steps.
+        Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
+        """
+        key = keys.ctl_key(self.run, "clock")
+        last = said = None
+        said_at = 0.0
+        # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
+        # ~30 steps/s (the compiled agents run faster than that).
+        while not self._stop.wait(self.clock_period):
+            try:
+                while (sample := self._states.try_recv()) is not None:
+                    self._on_state(sample)
+            except Exception:  # the session is closing
+                return
+            now = time.monotonic()
+            with self.swarm.changed:
+                alive = set(self.swarm.alive)
+                gone, self.swarm.gone = self.swarm.gone, []
+            # Agents learn of a lost neighbour from this relay, not from a liveliness subscriber each on every
+            # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
+            for j in gone:
+                try:
+                    self.session.put(keys.ctl_key(self.run, "gone"), _ID.pack(j),
+                                     congestion_control=zenoh.CongestionControl.BLOCK)
+                except Exception:  # the session is closing
+                    return
+            steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
+            if steps:
+                last = min(steps)
+            # Said again every CLOCK_REPEAT s, and with congestion control Block: a clock tick dropped by a
+            # congested link held 555 of 1000 agents at their lead for good (nobody moved, so no new tick).
+            if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
+                said, said_at = last, now
+                try:
+                    self.session.put(key, _STEP.pack(last), congestion_control=zenoh.CongestionControl.BLOCK)
+                    if self.end_step is not None:
+                        self.end_at(self.end_step)
+                except Exception:  # the session is closing
+                    return
+
+    def wait_step(self, step: int, timeout: float) -> None:
+        deadline = time.monotonic() + timeout
+        while self.max_step < step:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"run did not reach step {step} in {timeout:.0f} s")
+            time.sleep(0.01)
+
+    def end_at(self, step: int) -> None:
+        """Every agent finishes at `step` (or its own last step if that comes first): ctl/end, said again
+        with the clock so that no agent misses it."""
+        self.end_step = int(step)
+        self.session.put(keys.ctl_key(self.run, "end"), _STEP.pack(self.end_step),
+                         congestion_control=zenoh.CongestionControl.BLOCK)

@@ -1,0 +1,65 @@
+"""The run's Zenoh session: an embedded router on this host, or a client of a router elsewhere.
+
+With an embedded router the local agents link to it over TCP loopback or a unix socket (AGENT_LINK), and
+the router gets the run's fresh credentials and per-process rights (agent/protocol/access.py,
+docs/security.md); as a client the launcher uses the credentials it was given.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import tempfile
+from dataclasses import astuple
+
+import zenoh
+
+from agent.protocol.access import LaunchAccess
+from agent.protocol.session import client_config, router_config
+
+# How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
+AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class RouterHost:
+    """`endpoint`: where other processes and hosts connect; `agent_endpoint`: where this host's agents
+    connect; `access`: the credentials handed to each process; `session`: the launcher's own session."""
+
+    def __init__(self, connect: str | None = None, listen: str | None = None, user: str = "", password: str = "",
+                 auth_file: str = ""):
+        self._socket_dir = None
+        if connect:
+            self.endpoint = self.agent_endpoint = connect
+            self.access = LaunchAccess.client(user, password, auth_file)  # docs/security.md
+            conf = client_config([connect], *(astuple(self.access.own) if self.access.own else ()))
+        else:
+            self.endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
+            listeners = [self.endpoint]
+            self.agent_endpoint = self.endpoint
+            if AGENT_LINK == "unix":
+                # The local agents reach the embedded router over a unix socket (measured against TCP
+                # loopback in docs/benchmarks/native.md); other processes and hosts use the TCP endpoint.
+                self._socket_dir = tempfile.mkdtemp(prefix="fluidswarm-")
+                self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
+                listeners.append(self.agent_endpoint)
+            self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
+            conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
+        try:
+            self.session = zenoh.open(conf)
+        finally:
+            self.access.opened()
+
+    def close(self) -> None:
+        try:
+            self.session.close()
+        except zenoh.ZError:  # the router's close can time out with many links still open; nothing is lost
+            pass
+        if self._socket_dir:
+            shutil.rmtree(self._socket_dir, ignore_errors=True)

@@ -1,0 +1,214 @@
+"""The agent processes of one run: start them, follow their alive tokens and final reports, stop them.
+
+Every process started here is stopped by `stop_all` (stop message, SIGTERM, SIGKILL); agents also get
+SIGTERM from the kernel if the launcher dies (PR_SET_PDEATHSIG, set by the agent itself), so none
+outlives it. Reports and events come from the network: reports are decoded and validated by
+agent/protocol/report.py, and one published under another agent's key is dropped.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import zenoh
+
+from agent.executable import agent_executable
+from agent.protocol import keys
+from agent.protocol.report import FinalReport, decode_report
+from agent.protocol.spec import AgentSpec
+
+_PR_SET_PDEATHSIG = 1
+# s an exited agent's final report is still awaited, if its exit code says it sent one
+REPORT_GRACE = 10.0
+REPORTED = (0, 3, 4)
+
+
+def die_with_parent() -> None:  # runs in the child between fork and exec
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    except OSError:
+        pass
+
+
+@dataclass
+class Swarm:
+    """A running swarm: its router session, its agent processes, what they reported."""
+
+    run: str
+    endpoint: str
+    session: zenoh.Session
+    procs: dict[int, subprocess.Popen] = field(default_factory=dict)
+    finals: dict[int, FinalReport] = field(default_factory=dict)
+    events: list[dict] = field(default_factory=list)
+    alive: set[int] = field(default_factory=set)
+    gone: list[int] = field(default_factory=list)  # lost agents not yet relayed on ctl/gone
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    changed: threading.Condition = None  # type: ignore[assignment]
+
+    def __post_init__(self):
+        self.changed = threading.Condition(self.lock)
+
+
+class Supervisor:
+    """Starts agents with `env_for_agent(id)` (their credentials) and, with `secret`, the run's command key
+    in their environment; `quiet`: their output goes nowhere."""
+
+    def __init__(self, swarm: Swarm, env_for_agent: Callable[[int], dict], secret: str = "", quiet: bool = True):
+        self.swarm, self.env_for_agent, self.secret, self.quiet = swarm, env_for_agent, secret, quiet
+        self.program = agent_executable()  # the compiled agent (agent/native); fail before any process starts
+        session, run = swarm.session, swarm.run
+        self._subs = [
+            session.declare_subscriber(keys.final_expr(run), self._on_final),
+            session.declare_subscriber(keys.event_expr(run), self._on_event),
+            session.liveliness().declare_subscriber(keys.alive_expr(run), self._on_alive, history=True),
+        ]
+
+    def spawn(self, spec: AgentSpec) -> subprocess.Popen:
+        out = subprocess.DEVNULL if self.quiet else None
+        env = dict(os.environ, **self.env_for_agent(spec.id))
+        if self.secret:  # the run's command key travels in the environment, never on the bus or argv
+            env["FLUIDSWARM_SECRET"] = self.secret
+        # No preexec_fn: it forces a full fork() of this (large) Python process per agent, which made starting
+        # 300 agents take seconds; without it Python spawns with vfork. The agent asks the kernel for SIGTERM
+        # when its parent dies itself (PR_SET_PDEATHSIG first thing in main.rs, then checks it was not
+        # already orphaned), so none outlives the launcher.
+        # The death signal fires when the *thread* that spawned exits: late joiners started from a helper thread
+        # must not ask for it (they rely on close()).
+        if threading.current_thread() is not threading.main_thread():
+            env["FLUIDSWARM_NO_PDEATHSIG"] = "1"
+        proc = subprocess.Popen([self.program, "--spec", spec.to_json()], env=env,
+                                stdout=out, stderr=out, stdin=subprocess.DEVNULL)
+        self.swarm.procs[spec.id] = proc
+        return proc
+
+    # callbacks: tiny, under the lock
+    def _on_final(self, sample) -> None:
+        report = decode_report(sample.payload.to_bytes())
+        if report is None or report.id != keys.id_from_key(str(sample.key_expr)):
+            return  # untrusted: a malformed report, or one under another agent's key, counts as none
+        with self.swarm.changed:
+            self.swarm.finals[report.id] = report
+            self.swarm.changed.notify_all()
+
+    def _on_event(self, sample) -> None:
+        try:
+            msg = json.loads(sample.payload.to_bytes())
+        except ValueError:
+            return
+        with self.swarm.changed:
+            self.swarm.events.append(msg)
+
+    def _on_alive(self, sample) -> None:
+        j = keys.id_from_key(str(sample.key_expr))
+        if j is None:
+            return
+        with self.swarm.changed:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self.swarm.alive.add(j)
+                gone = False
+            else:
+                self.swarm.alive.discard(j)
+                gone = j not in self.swarm.finals  # a finished agent's neighbours are done with it too
+            if gone:
+                self.swarm.gone.append(j)  # relayed on ctl/gone by the clock thread (no put on the router's thread)
+            self.swarm.changed.notify_all()
+
+    def wait_alive(self, ids, timeout: float) -> None:
+        """Until every agent in `ids` shows its alive token (the start barrier's wait)."""
+        want = set(ids)
+        deadline = time.monotonic() + timeout
+        with self.swarm.changed:
+            while not want <= self.swarm.alive:
+                left = deadline - time.monotonic()
+                dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
+                if dead:
+                    raise RuntimeError(f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})")
+                if left <= 0:
+                    missing = sorted(want - self.swarm.alive)
+                    raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
+                self.swarm.changed.wait(min(left, 0.5))
+
+    def start(self) -> None:
+        """The start signal (ctl/start) every waiting agent steps from."""
+        # Block, not zenoh's default Drop: at N = 1000 the links are still full of liveliness declarations
+        # when the swarm starts, and an agent that missed the one start message never stepped.
+        self.swarm.session.put(keys.ctl_key(self.swarm.run, "start"), b"start",
+                               congestion_control=zenoh.CongestionControl.BLOCK)
+
+    def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
+        """Until every agent in `ids` has reported or exited."""
+        deadline = time.monotonic() + timeout
+        exited: dict[int, float] = {}  # id -> when its process was first seen ended without its report here
+
+        def waiting(i: int, now: float) -> bool:
+            if i in self.swarm.finals:
+                return False
+            code = self.swarm.procs[i].poll()
+            if code is None:
+                return True
+            # An agent that reported (done 0, fell behind 3, stopped 4) waited for the router to hold its
+            # report before it exited, but this process may not have handled it yet (1000 reports at once).
+            return code in REPORTED and now - exited.setdefault(i, now) < REPORT_GRACE
+
+        with self.swarm.changed:
+            while True:
+                pending = [i for i in ids if waiting(i, time.monotonic())]
+                if not pending:
+                    return
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError(f"{len(pending)} agents still running after {timeout:.0f} s")
+                self.swarm.changed.wait(min(left, 0.2))
+                if progress is not None:
+                    self.swarm.changed.release()
+                    try:
+                        progress()
+                    finally:
+                        self.swarm.changed.acquire()
+
+    def stop_all(self) -> dict[int, int | None]:
+        """Stop every agent (stop message, then SIGTERM, then SIGKILL); their exit codes."""
+        procs = self.swarm.procs
+        if any(p.poll() is None for p in procs.values()):
+            try:
+                self.swarm.session.put(keys.ctl_key(self.swarm.run, "stop"), b"stop")
+            except Exception:  # the session may already be gone on an interrupted run
+                pass
+            _wait_all(procs.values(), 2.0)
+        for p in procs.values():
+            if p.poll() is None:
+                try:
+                    p.send_signal(signal.SIGCONT)  # a frozen agent must be able to handle SIGTERM
+                    p.terminate()
+                except ProcessLookupError:
+                    pass
+        _wait_all(procs.values(), 3.0)
+        for p in procs.values():
+            if p.poll() is None:
+                p.kill()
+        _wait_all(procs.values(), 5.0)
+        return {i: p.returncode for i, p in procs.items()}
+
+    def undeclare(self) -> None:
+        for s in self._subs:
+            try:
+                s.undeclare()
+            except Exception:
+                pass
+
+
+def _wait_all(procs, timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    for p in procs:
+        try:
+            p.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            pass
