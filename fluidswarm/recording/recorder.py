@@ -7,7 +7,8 @@ run is far enough past it (then the missing agents get a `froze` event and count
 state of theirs gives a `started` event). A killed agent's last state is written before its `died` event.
 SIGINT/SIGTERM finish the file (pending steps flushed, MCAP footer written).
 
-With `--live HOST:PORT` it also serves the run to Foxglove as it happens (recording/live.py).
+With `--live HOST:PORT` it also serves the run to Foxglove as it happens (recording/live.py). This module is
+the process (arguments, subscriptions, signals); what it does with each message is steps.py's `Recorder`.
 
 `python -m fluidswarm.recording.recorder --connect tcp/... --run NAME --out FILE.mcap [--metadata JSON] [--live H:P]`
 """
@@ -17,204 +18,20 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import queue
 import signal
 import sys
-import time
 
 import numpy as np
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.session import client_config
-from agent.sph.particle import P, RHO, VX, VY, X, Y
-from agent.protocol.wire import decode_state
-from coordinator.control.fidelity import fidelity
-from fluidswarm.recording.writer import RunWriter
 from agent.protocol.errors import UserError
+from agent.protocol.session import client_config
+from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.live import LiveServer, parse_address
-
-RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
-QUIET_SECONDS = 3.0  # ... or once nothing new came for this long
-
-
-class Recorder:
-    def __init__(self, run: str, writer: RunWriter, dt: float):
-        self.run = run
-        self.writer = writer
-        self.dt = dt
-        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
-        self.pending: dict[int, dict[int, tuple]] = {}
-        self.alive: set[int] = set()
-        self.stopped: set[int] = set()  # alive but not reporting (frozen): waiting for them is pointless
-        # Late joiners: alive after the run began; they start at the step of their first state (they adopt
-        # the swarm's step when they hear it), so the recorder expects them only from then on.
-        self.joining: set[int] = set()
-        self.last_step: dict[int, int] = {}
-        self.last_positions: np.ndarray | None = None  # of the last step written (scored at the end)
-        self.first_seen: dict[int, float] = {}
-        self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
-        self.next_step = 0
-        self.newest = -1
-        self.rejected = 0
-        self.last_message = time.monotonic()
-
-    # callbacks: decode nothing, enqueue
-    def on_state(self, sample) -> None:
-        self.inbox.put((0, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_alive(self, sample) -> None:
-        self.inbox.put((1, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
-
-    def on_event(self, sample) -> None:
-        self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_command(self, sample) -> None:
-        self.inbox.put((3, sample.payload.to_bytes()))
-
-    def t(self, step: int) -> float:
-        return max(step, 0) * self.dt
-
-    def handle(self, item) -> None:
-        kind, data = item
-        self.last_message = time.monotonic()
-        if kind == 0:
-            data, key = data
-            decoded, _reason = decode_state(data)
-            # The key's id is the publisher's (the router's access control, docs/security.md); a record
-            # naming another agent is a forgery.
-            if decoded is None or decoded[0] != keys.id_from_key(key):
-                self.rejected += 1
-                return
-            j, step, cls, values = decoded
-            if step < self.next_step or step > self.newest + 100000:
-                return  # already written (a late straggler) or absurd
-            if j in self.joining:
-                self.joining.discard(j)
-                self.alive.add(j)
-                self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} joined at step {step}",
-                                        kind="started", agent=j, step=step)
-            if step not in self.pending:
-                self.first_seen[step] = time.monotonic()
-            self.pending.setdefault(step, {})[j] = (cls, values)
-            self.newest = max(self.newest, step)
-            self.last_step[j] = max(self.last_step.get(j, -1), step)
-            if j in self.stopped:
-                self.stopped.discard(j)
-                self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} reports again",
-                                        kind="started", agent=j, step=step)
-        elif kind == 1:
-            key, up = data
-            j = keys.id_from_key(key)
-            if j is None:
-                return
-            if up:
-                if j not in self.alive and self.newest >= 0 and j not in self.last_step:
-                    self.joining.add(j)
-                elif j not in self.alive:
-                    self.alive.add(j)
-                    self.writer.write_event(self.t(self.next_step), "info", f"agent/{j}", f"agent {j} started",
-                                            kind="started", agent=j, step=self.next_step if self.newest >= 0 else 0)
-            elif j in self.joining:
-                self.joining.discard(j)
-            elif j in self.alive:
-                self.alive.discard(j)
-                self.stopped.discard(j)
-                # Its last state must be written before its death: the event waits for that step.
-                self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
-                self._write_deaths()
-        elif kind == 2:
-            data, key = data
-            try:
-                ev = json.loads(data)
-                j, step, what = int(ev["id"]), int(ev["step"]), str(ev["event"])[:64]
-            except (ValueError, KeyError, TypeError):
-                self.rejected += 1
-                return
-            if j != keys.id_from_key(key):
-                self.rejected += 1
-                return
-            if what != "started":  # lifecycle 'started' comes from liveliness, with its step
-                level = "warning" if what in ("neighbour_timeout", "fell_behind") else "info"
-                self.writer.write_event(self.t(step), level, f"agent/{j}", json.dumps(ev)[:2000], kind=what, agent=None)
-        elif kind == 3:
-            try:
-                text = data.decode("utf-8")
-                json.loads(text)
-            except (UnicodeDecodeError, ValueError):
-                self.rejected += 1
-                return
-            self.writer.write_command(self.t(self.next_step), text)
-
-    def _write_deaths(self) -> None:
-        for j, first_missing in list(self.dead_at.items()):
-            if first_missing <= self.next_step:
-                del self.dead_at[j]
-                self.writer.write_event(self.t(first_missing), "warning", f"agent/{j}", f"agent {j} died",
-                                        kind="died", agent=j, step=first_missing)
-
-    def _expected_at(self, step: int) -> set[int]:
-        dying = {j for j, s in self.dead_at.items() if step < s}
-        return (self.alive | dying) - self.stopped
-
-    def _ready(self, step: int) -> bool:
-        have = self.pending.get(step, {})
-        waiting = self._expected_at(step) - set(have)
-        now = time.monotonic()
-        return (not waiting or now - self.first_seen.get(step, now) >= RELEASE_SECONDS
-                or now - self.last_message > QUIET_SECONDS)
-
-    def _write_step(self, step: int) -> None:
-        have = self.pending.pop(step, {})
-        self.first_seen.pop(step, None)
-        for j in self._expected_at(step) - set(have):
-            if self.last_step.get(j, -1) < step:  # it stopped reporting: frozen or cut off
-                self.stopped.add(j)
-                self.writer.write_event(self.t(step), "warning", f"agent/{j}", f"agent {j} stopped reporting (frozen?)",
-                                        kind="died", agent=j, step=step)
-        if not have:
-            return
-        ids = np.array(sorted(have), dtype=np.int64)
-        vals = np.array([have[j][1] for j in ids])
-        cls = np.array([have[j][0] for j in ids], dtype=np.int64)
-        self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
-        self.last_positions = vals[:, [X, Y]]
-
-    def _flush(self, upto: int | None = None, force: bool = False) -> None:
-        while self.next_step <= self.newest:
-            if upto is not None and self.next_step > upto:
-                return
-            if not force and upto is None and not self._ready(self.next_step):
-                return
-            self._write_step(self.next_step)
-            self.next_step += 1
-            self._write_deaths()
-
-    def pump(self, timeout: float) -> None:
-        try:
-            item = self.inbox.get(timeout=timeout)
-        except queue.Empty:
-            self._flush()
-            return
-        self.handle(item)
-        while True:
-            try:
-                self.handle(self.inbox.get_nowait())
-            except queue.Empty:
-                break
-        self._flush()
-
-    def finish(self) -> None:
-        while True:
-            try:
-                self.handle(self.inbox.get_nowait())
-            except queue.Empty:
-                break
-        self._flush(force=True)
-        self.next_step = max(self.next_step, max(self.dead_at.values(), default=0))
-        self._write_deaths()
-
+from fluidswarm.recording.steps import Recorder
+from fluidswarm.recording.writer import RunWriter
 
 class _Stop(Exception):
     pass
