@@ -7,7 +7,7 @@ Per N and round, alternating, one swarm each (`run_swarm(spread_block(N), STEPS)
   auth  credentials only (FLUIDSWARM_ACCESS=auth)
   open  no credentials (FLUIDSWARM_ACCESS=none), same agent binary
   base  the code before issue 18 (an open router, one exact state key per cell): its launcher from BASE_DIR
-        (e.g. `git archive 061ede9 | tar -x -C BASE_DIR`) and its agent build BASE_AGENT_BINARY
+        (e.g. `git archive 353a79b | tar -x -C BASE_DIR`) and its agent build BASE_AGENT_BINARY
 Each swarm runs in its own process (its environment picks the setting). Run it under the CPU lock.
 """
 
