@@ -14,10 +14,13 @@ stalls (then a one-line error, exit 1).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import signal
 import sys
 import threading
+from contextlib import contextmanager
+from pathlib import Path
 
 import zenoh
 
@@ -126,10 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError, KeyError, TypeError) as exc:
         print(f"fluidswarm coordinator: error: --commands {args.commands}: {exc}", file=sys.stderr)
         return 1
-    stop = _stop_on_signals()
-    session = zenoh.open(client_config([args.connect], args.user, args.password))
-    try:
-        pub, token = _declare_command_publisher(session, args.run)
+    with _command_channel(args) as (session, pub, stop):
         clock = None
         if args.frame_steps:
             clock = SwarmClock()
@@ -143,25 +143,17 @@ def main(argv: list[str] | None = None) -> int:
             pub.put(current)
             tick += 1
             stop.wait(args.period)
-        token.undeclare()
-        pub.undeclare()
-    finally:
-        session.close()
     return 0
 
 
 def write_commands(path, commands) -> None:
     """[(first frame, GestureCommand)] as the JSON file `--commands` reads."""
-    import json
-
     with open(path, "w") as f:
         json.dump([{"first": int(first), "body": c.body()} for first, c in commands], f)
 
 
 def _load_commands(path):
     """The file `write_commands` wrote, each body validated as the agents validate a command."""
-    import json
-
     with open(path) as f:
         items = json.load(f)
     if not isinstance(items, list) or not items or items[0]["first"] != 0:
@@ -177,33 +169,37 @@ def _stop_on_signals() -> threading.Event:
     return stop
 
 
-def _declare_command_publisher(session, run: str):
-    """The command publisher and the coordinator's liveliness token (docs/protocol.md)."""
-    return (session.declare_publisher(keys.command_key(run)),
-            session.liveliness().declare_token(f"{keys.PREFIX}/{run}/coordinator"))
+@contextmanager
+def _command_channel(args):
+    """(session, command publisher, stop event) while the coordinator publishes: its liveliness token is
+    declared (docs/protocol.md), SIGTERM/SIGINT set `stop`, and the session closes however the loop ends."""
+    stop = _stop_on_signals()
+    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    try:
+        pub = session.declare_publisher(keys.command_key(args.run))
+        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")
+        yield session, pub, stop
+        token.undeclare()
+        pub.undeclare()
+    finally:
+        stop.set()
+        session.close()
 
 
 def _camera(args, secret: bytes) -> int:
     """The live source (coordinator/camera.py): commands as the observed gesture changes."""
-    from pathlib import Path
-
     try:
         params = StreamParams(fps=args.fps, stall_seconds=args.stall_seconds)
     except ValueError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 2
-    stop = _stop_on_signals()
-    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    observations = Path(args.observations) if args.observations else None
     try:
-        pub, token = _declare_command_publisher(session, args.run)
-        observations = Path(args.observations) if args.observations else None
-        run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations)
+        with _command_channel(args) as (_session, pub, stop):
+            run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations)
     except StreamError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 1
-    finally:
-        stop.set()
-        session.close()
     return 0
 
 
