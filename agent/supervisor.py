@@ -103,6 +103,8 @@ class Supervisor:
             msg = json.loads(sample.payload.to_bytes())
         except ValueError:
             return
+        if not isinstance(msg, dict) or msg.get("id") != keys.id_from_key(str(sample.key_expr)):
+            return  # malformed, or under another agent's key (docs/security.md)
         with self.swarm.changed:
             self.swarm.events.append(msg)
 
