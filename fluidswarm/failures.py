@@ -55,6 +55,12 @@ class FailureInjector:
         pool = [i for i in self.ids if i not in self.log.killed and i not in self.log.frozen]
         return sorted(int(v) for v in self.rng.sample(pool, min(count, len(pool))))
 
+    def _signal_victims(self, procs, count: int, sig: int) -> list[int]:
+        victims = self._victims(count)
+        for v in victims:
+            _signal(procs[v].pid, sig)
+        return victims
+
     def _run(self) -> None:
         for f in self.failures:
             while self.launcher.max_step < f.at_step:
@@ -62,15 +68,11 @@ class FailureInjector:
                     return
             procs = self.launcher.swarm.procs
             if f.kind == "kill":
-                victims = self._victims(f.count)
-                for v in victims:
-                    _signal(procs[v].pid, signal.SIGKILL)
+                victims = self._signal_victims(procs, f.count, signal.SIGKILL)
                 self.log.killed.update(victims)
                 self.log.injected.append(f"step {f.at_step}: SIGKILL agents {victims}")
             elif f.kind == "freeze":
-                victims = self._victims(f.count)
-                for v in victims:
-                    _signal(procs[v].pid, signal.SIGSTOP)
+                victims = self._signal_victims(procs, f.count, signal.SIGSTOP)
                 self.log.frozen.update(victims)
                 self.log.injected.append(f"step {f.at_step}: SIGSTOP agents {victims} for {f.seconds:g} s")
                 threading.Timer(f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]).start()
