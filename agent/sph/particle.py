@@ -21,14 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.sph.equations import (
-    artificial_viscosity,
-    body_force,
-    density_terms,
-    momentum_terms,
-    stress_rate_terms,
-    tait_pressure,
-)
+from agent.sph.equations import (artificial_viscosity, body_force, density_terms, momentum_terms,
+                                  stress_rate_terms, tait_pressure)
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
 

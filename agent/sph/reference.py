@@ -12,14 +12,8 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
-from agent.sph.equations import (
-    artificial_viscosity,
-    body_force,
-    density_terms,
-    momentum_terms,
-    stress_rate_terms,
-    tait_pressure,
-)
+from agent.sph.equations import (artificial_viscosity, body_force, density_terms, momentum_terms,
+                                  stress_rate_terms, tait_pressure)
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
 from agent.sph.particle import (
