@@ -18,11 +18,12 @@ import cv2
 import numpy as np
 
 from agent.supervisor import die_with_parent
-from coordinator.control.fidelity import fidelity
+from coordinator.control.fidelity import Fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, observations_for, \
     prepare_observation
 from coordinator.control.settle import SettleRule, SettleWatch
 from coordinator.process import commands_along, write_commands
+from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
 
@@ -62,12 +63,12 @@ def write_target(folder: Path, im: Imitation, frame_bgr: np.ndarray) -> tuple[st
     return str(target), str(image)
 
 
-def score_formation(run: Run, record: RunRecord, mask: np.ndarray, im: Imitation, title: str, waypoints=None,
-                    outline=()) -> None:
-    """Fidelity of the finished agents against `mask` (scored once, here) and the formation PNG."""
+def score_formation(run: Run, record: RunRecord, mask: np.ndarray, im: Imitation, title: str, score: Fidelity,
+                    waypoints=None, outline=()) -> None:
+    """The formation's `score` into the record, and the formation PNG of the finished agents over `mask`."""
     ids, pos = record.done_positions()
     classes = np.array([record.finals[i].particle_class for i in ids], dtype=int)
-    record.fidelity = fidelity(mask, im.transform, pos)
+    record.fidelity = score
     t = im.transform
     rows, cols = mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
@@ -147,7 +148,10 @@ class FileImitation:
         sequence = self.frame_steps > 0
         fill = im.command.fill
         wps = None if sequence or fill else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
-        score_formation(run, record, im.mask, im, Path(self.input_path).name, waypoints=wps,
+        # Scored once, by the recorder, which sees every state: the last recorded step against the target
+        # (for a sequence, the last frame's silhouette); nothing recorded, nothing formed.
+        score = recorded_fidelity(run.mcap) or Fidelity(0.0, 0.0, 0.0)
+        score_formation(run, record, im.mask, im, Path(self.input_path).name, score, waypoints=wps,
                         outline=fill.rings if fill is not None and not sequence else ())
 
 

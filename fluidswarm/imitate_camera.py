@@ -20,6 +20,7 @@ from pathlib import Path
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from coordinator.camera import load_observation
+from coordinator.control.fidelity import fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
 from fluidswarm.imitate import score_formation, start_coordinator, write_target
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan
@@ -121,8 +122,11 @@ class CameraImitation:
         coord = run.coordinator
         if self.watch.failed or coord.returncode not in (0, -15, None):
             raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
-        # against the last gesture commanded
-        score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}")
+        # Against the last gesture commanded, which only this process knows (the recorder's target, and its
+        # score in the file, are the first gesture's): scored here from the final reports.
+        _ids, pos = run.record.done_positions()
+        score = fidelity(self.latest.mask, self.im.transform, pos)
+        score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}", score)
 
 
 def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",

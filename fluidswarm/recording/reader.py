@@ -166,6 +166,24 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
 
+def recorded_fidelity(path: str | os.PathLike):
+    """The recorder's score of the final formation (metadata `fidelity`, coordinator/control/fidelity.py
+    Fidelity) without reading the steps, or None if the file holds none (no target, or no state)."""
+    from coordinator.control.fidelity import Fidelity
+
+    path = Path(path)
+    with _open_checked(path) as fh:
+        try:
+            for record in make_reader(fh).iter_metadata():
+                if record.name == "fidelity":
+                    f = decode_metadata(record.metadata)
+                    return Fidelity(float(f["fidelity_iou"]), float(f["fidelity_inside"]),
+                                    float(f["fidelity_coverage"]), float(f["nn_cv"]))
+        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+    return None
+
+
 def _read(path: Path, reader, want_images: bool) -> Run:
     summary = reader.get_summary()
     if summary is None:

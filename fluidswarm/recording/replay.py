@@ -34,7 +34,11 @@ class ReplayResult:
 
 
 def final_fidelity(run: Run) -> Fidelity | None:
-    """Fidelity of the last recorded step's particles against the last target."""
+    """Fidelity of the last recorded step's particles against the last target: the recorder's own score
+    when the file holds it (scored once, at the end of the run), else (older files) scored here."""
+    if run.fidelity:
+        f = run.fidelity
+        return Fidelity(f["fidelity_iou"], f["fidelity_inside"], f["fidelity_coverage"], f["nn_cv"])
     if run.target is None or not run.frames:
         return None
     return fidelity(run.target.mask, run.target.transform, run.frames[-1].positions)
