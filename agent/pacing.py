@@ -12,6 +12,7 @@ import struct
 import threading
 import time
 
+import numpy as np
 import zenoh
 
 from agent.protocol import keys
@@ -120,6 +121,14 @@ class Pacer:
                         self.end_at(self.end_step)
                 except Exception:  # the session is closing
                     return
+
+    def longest_stall(self) -> float:
+        """Longest wall-clock gap between the first sightings of consecutive steps (s): how long the swarm as
+        a whole made no progress, e.g. while it waited for frozen agents."""
+        if len(self.step_times) < 2:
+            return 0.0
+        t = np.maximum.accumulate(np.array([self.step_times[k] for k in sorted(self.step_times)]))
+        return float(np.max(np.diff(t)))
 
     def wait_step(self, step: int, timeout: float) -> None:
         deadline = time.monotonic() + timeout

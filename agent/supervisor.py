@@ -207,6 +207,17 @@ class Supervisor:
                 pass
 
 
+def stop_process(proc: subprocess.Popen, timeout: float = 10.0) -> None:
+    """SIGTERM a side process (it closes its session), SIGKILL after `timeout` s."""
+    if proc.poll() is None:
+        proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
 def _wait_all(procs, timeout: float) -> None:
     deadline = time.monotonic() + timeout
     for p in procs:

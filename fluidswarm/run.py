@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Callable, Protocol
 import numpy as np
 
 from agent.launcher import Launcher, SwarmResult, run_swarm
+from agent.supervisor import stop_process
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
@@ -167,27 +168,6 @@ class RunKind(Protocol):
     def score(self, run: "Run") -> None: ...
 
 
-def longest_stall(step_times: dict[int, float]) -> float:
-    """Longest wall-clock gap between the first sightings of consecutive steps (s): how long the swarm as
-    a whole made no progress, e.g. while it waited for frozen agents."""
-    if len(step_times) < 2:
-        return 0.0
-    steps = sorted(step_times)
-    t = np.maximum.accumulate(np.array([step_times[k] for k in steps]))
-    return float(np.max(np.diff(t)))
-
-
-def stop_process(proc: subprocess.Popen, timeout: float = 10.0) -> None:
-    """SIGTERM a side process (it closes its session), SIGKILL after `timeout` s."""
-    if proc.poll() is None:
-        proc.terminate()
-    try:
-        proc.wait(timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-
-
 class Run:
     """The frame of one run (see the module's docstring). Usable once."""
 
@@ -307,7 +287,7 @@ class Run:
             steps_per_second=res.steps_per_second(), startup_seconds=res.startup_seconds,
             wall_seconds=res.wall_seconds, msgs_per_agent_step=res.msgs_per_agent_step(),
             neighbours_per_agent=res.neighbours_per_agent(), neighbour_timeout_seconds=la.agent_timeout,
-            longest_stall_seconds=longest_stall(la.step_times),
+            longest_stall_seconds=la.pacer.longest_stall(),
             failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
             failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
             mcap=str(self.mcap) if self.mcap else None, finals=finals)
