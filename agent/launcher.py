@@ -135,7 +135,7 @@ class Launcher:
         p["domain"] = list(p["domain"])
         return AgentSpec(run=self.run, id=int(agent_id), connect=[self.agent_endpoint], steps=int(steps),
                          initial=[float(v) for v in state[:4]], control=asdict(control), params=p,
-                         timeout=self.agent_timeout, **extra)
+                         timeout=self.agent_timeout, state_key_ids=self.access.state_key_ids, **extra)
 
     def spawn(self, spec: AgentSpec):
         return self.supervisor.spawn(spec)

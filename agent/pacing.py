@@ -66,7 +66,7 @@ class Pacer:
         if peek is None:
             return
         agent_id, step = peek
-        if keys.id_from_key(str(sample.key_expr)) != agent_id:
+        if keys.state_sender(str(sample.key_expr)) not in (None, agent_id):
             return  # under another agent's key: a forgery (docs/security.md)
         now = time.monotonic()
         last = self.agent_steps.get(agent_id)

@@ -8,6 +8,7 @@ import os
 import signal
 import struct
 import subprocess
+from types import SimpleNamespace
 import sys
 import threading
 import time
@@ -151,7 +152,7 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
                 while not stop.is_set():
                     for cx, cy in cells:
                         for payload in bad:
-                            session.put(keys.state_key(la.run, cx, cy, 7), payload)
+                            session.put(keys.state_key(la.run, cx, cy, 7 if la.access.state_key_ids else None), payload)
                             sent["n"] += 1
                     time.sleep(0.05)
             finally:
@@ -213,6 +214,7 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
 
     good = Launcher.__new__(Launcher)  # only spec_for's fields are needed
     good.run, good.agent_endpoint, good.agent_timeout, good.user, good.password = "r1", "tcp/127.0.0.1:9", 2.0, "", ""
+    good.access = SimpleNamespace(state_key_ids=False)
     setup = spread_block(4)
     spec = json.loads(good.spec_for(0, setup.states[0], setup.controls[0], setup.params, 10).to_json())
     cases = {
@@ -222,6 +224,7 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
         "mode": {**spec, "mode": "chaos"},
         "control.beta": {**spec, "control": {**spec["control"], "beta": "stiff"}},
         "bogus": {**spec, "bogus": 1},
+        "state_key_ids": {**spec, "state_key_ids": "yes"},
         "not JSON": None,
     }
     for field, bad in cases.items():

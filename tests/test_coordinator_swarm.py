@@ -119,7 +119,7 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
                 time.sleep(0.1)
             cred = la.access.env_for_agent(0)
             probe = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
-            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 0))
+            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 0 if la.access.state_key_ids else None))
             time.sleep(1.0)
             matching = pub.matching_status.matching
             probe.close()

@@ -14,6 +14,7 @@ import os
 import signal
 import subprocess
 import sys
+import struct
 import time
 
 import numpy as np
@@ -123,7 +124,7 @@ def _verify_with_outsider(access: str) -> tuple[float, dict]:
 
 @pytest.mark.swarm
 def test_an_outsider_without_credentials_cannot_connect_and_verify_stays_exact():
-    error, tally = _verify_with_outsider("acl")
+    error, tally = _verify_with_outsider("auth")  # the default: credentials for every process
     print(f"with credentials: max_position_error={error:.2e}, outsider {tally}")
     assert tally.get("attempts", 0) >= 3 and tally["connected"] == 0 and tally["forged"] == 0
     assert error <= 1e-9
@@ -160,8 +161,8 @@ def forge(sample):
 sub = session.declare_subscriber(f"fluidswarm/{run}/state/**", forge)
 print("ready", flush=True)
 while not stop.wait(0.01):
-    for what, payload in (("stop", b"stop"), ("end", struct.pack("<Q", 3)), ("clock", struct.pack("<Q", 0)),
-                          ("gone", struct.pack("<I", 5))):
+    for what, payload in (("stop", b"stop"), ("end", struct.pack("<Q", 3)), ("clock", struct.pack("<Q", 77777)),
+                          ("gone", struct.pack("<I", 99))):
         session.put(f"fluidswarm/{run}/ctl/{what}", payload)
         did["ctl"] += 1
     session.put(f"fluidswarm/{run}/command", b'{"v":1}')
@@ -171,8 +172,15 @@ os._exit(0)
 '''
 
 
+# What the rogue sends on ctl: the launcher itself never sends these (no agent 99, no step 77777 in a 150-step
+# run, no ctl/end in run_swarm, ctl/stop only once the run is over).
+ROGUE_CTL = {("stop", b"stop"), ("end", struct.pack("<Q", 3)), ("clock", struct.pack("<Q", 77777)),
+             ("gone", struct.pack("<I", 99))}
+
+
 @pytest.mark.swarm
-def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_launcher():
+def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_launcher(monkeypatch):
+    monkeypatch.setenv("FLUIDSWARM_ACCESS", "acl")  # per-process rights (states then carry the id in the key)
     setup = spread_block(16)
     steps = 150
     seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0}
@@ -181,12 +189,13 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
         key, data = str(sample.key_expr), sample.payload.to_bytes()
         if "/state/" in key and len(data) == 88 and int.from_bytes(data[12:14], "little") == MARK:
             seen["forged_own_key" if key.endswith("/16") else "forged_other_ids"] += 1
-        elif "/ctl/" in key and not key.endswith("/clock") and not key.endswith("/start"):
+        elif "/ctl/" in key and (key.rsplit("/", 1)[1], data) in ROGUE_CTL:  # not the launcher's own
             seen["ctl"] += 1
         elif key.endswith("/command"):
             seen["command"] += 1
 
     with Launcher(agent_timeout=15.0) as la:
+        assert la.access.state_key_ids
         observer = la.session.declare_subscriber(f"{keys.PREFIX}/{la.run}/**", observe)
         env = dict(os.environ, **la.access.env_for_agent(16))
         rogue = subprocess.Popen([sys.executable, "-c", ROGUE_AGENT, la.endpoint, la.run], env=env,

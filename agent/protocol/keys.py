@@ -1,6 +1,7 @@
 """Zenoh key expressions of a run: defined once here, documented in docs/protocol.md (protocol v1).
 
-    fluidswarm/<run>/state/<cx>/<cy>/<id>   agent id's state published in cell (cx, cy) (the record repeats the id)
+    fluidswarm/<run>/state/<cx>/<cy>        a state published in cell (cx, cy) (the record names the agent)
+    fluidswarm/<run>/state/<cx>/<cy>/<id>   the same with the id in the key, under per-process rights (acl)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
     fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
@@ -26,15 +27,24 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
     return math.floor(x / cell), math.floor(y / cell)
 
 
-def state_key(run: str, cx: int, cy: int, agent_id: int) -> str:
-    """Agent `agent_id`'s state in cell (cx, cy). The id is in the key so that the router's access control
-    lets each agent publish only its own states (docs/security.md); receivers check it equals the record's."""
-    return f"{PREFIX}/{run}/state/{cx}/{cy}/{agent_id}"
+def state_key(run: str, cx: int, cy: int, agent_id: int | None = None) -> str:
+    """A state published in cell (cx, cy). With `agent_id` (a router with per-process rights) the id is the
+    last chunk, so the router's access control lets each agent publish only its own states
+    (docs/security.md); without, one exact key per cell, the id only in the record (zenoh dispatches it by a
+    table look-up; the id in the key costs 31-42 % of the steps/s, docs/benchmarks/security.md)."""
+    cell = f"{PREFIX}/{run}/state/{cx}/{cy}"
+    return cell if agent_id is None else f"{cell}/{agent_id}"
 
 
-def cell_expr(run: str, cx: int, cy: int) -> str:
-    """Every agent's state in cell (cx, cy): what an agent subscribes to for each cell it watches."""
-    return f"{PREFIX}/{run}/state/{cx}/{cy}/*"
+def cell_expr(run: str, cx: int, cy: int, ids: bool = True) -> str:
+    """What an agent subscribes to for each cell it watches: every agent's key in it, or the cell's one key."""
+    return f"{PREFIX}/{run}/state/{cx}/{cy}/*" if ids else state_key(run, cx, cy)
+
+
+def state_sender(key: str) -> int | None:
+    """The sender id of a state key (`.../state/<cx>/<cy>/<id>`); None for a cell key or anything else."""
+    chunks = key.split("/")
+    return id_from_key(key) if len(chunks) == 6 and chunks[2] == "state" else None
 
 
 def state_all_expr(run: str) -> str:

@@ -339,6 +339,11 @@ impl Agent {
         *self.counters.rejected.entry(reason.to_string()).or_insert(0) += 1;
     }
 
+    /// The id a state key of agent `id` carries: Some(id) with ids in the state keys, None with cell keys.
+    fn key_id_of(&self, id: u32) -> Option<u32> {
+        self.spec.state_key_ids.then_some(id)
+    }
+
     fn handle_state(&mut self, data: &[u8], key_id: Option<u32>) -> Result<(), Halt> {
         let rec = match wire::decode_state(data) {
             Ok(r) => r,
@@ -347,9 +352,9 @@ impl Agent {
                 return Ok(());
             }
         };
-        // The router lets an agent publish only under its own id in the key (docs/security.md): a record
-        // naming another id is a forgery by the key's owner.
-        if key_id != Some(rec.id) {
+        // With ids in the state keys the router lets an agent publish only under its own id (docs/security.md):
+        // a record naming another id is a forgery by the key's owner. Cell keys carry no id.
+        if key_id != self.key_id_of(rec.id) {
             self.reject("key");
             return Ok(());
         }
@@ -460,12 +465,12 @@ impl Agent {
         for c in keys::covering_cells(x, y, self.r_sub, self.cell) {
             if !self.subscribers.contains_key(&c) {
                 let shared = Arc::clone(&self.shared);
-                let key = self.session.declare_keyexpr(keys::cell_expr(&self.spec.run, c)).wait().map_err(zerr)?;
+                let key = self.session.declare_keyexpr(keys::cell_expr(&self.spec.run, c, self.spec.state_key_ids)).wait().map_err(zerr)?;
                 let sub = self
                     .session
                     .declare_subscriber(key.clone())
                     .callback(move |sample| {
-                        let key_id = keys::id_from_key(sample.key_expr().as_str());
+                        let key_id = keys::state_sender(sample.key_expr().as_str());
                         shared.push_state(sample.payload().to_bytes().into_owned(), key_id)
                     })
                     .wait()
@@ -481,11 +486,14 @@ impl Agent {
     /// arrives with its key in full and is matched against every cell subscription (~35): 40 % of the
     /// agents' CPU at N = 300 (docs/benchmarks/native.md). The key's cell is the record's position's cell.
     fn note_sender(&mut self, j: u32, x: f64, y: f64) {
+        if !self.spec.state_key_ids {
+            return; // one exact key per cell: already dispatched by its declared id
+        }
         let c = keys::cell_of(x, y, self.cell);
         if self.sender_keys.contains_key(&(c, j)) || !self.subscribers.contains_key(&c) {
             return;
         }
-        if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, j)).wait() {
+        if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, Some(j))).wait() {
             self.sender_keys.insert((c, j), key);
         }
     }
@@ -539,7 +547,7 @@ impl Agent {
             if let Some((_, old)) = self.publisher.take() {
                 let _ = self.session.undeclare(old).wait();
             }
-            if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, self.spec.id)).wait() {
+            if let Ok(key) = self.session.declare_keyexpr(keys::state_key(&self.spec.run, c, self.key_id_of(self.spec.id))).wait() {
                 self.publisher = Some((c, key));
             }
         }
@@ -922,7 +930,7 @@ impl Agent {
                 }
                 Some(Msg::State(data, key_id)) => {
                     if let Ok(rec) = wire::decode_state(&data) {
-                        if rec.id != self.spec.id && key_id == Some(rec.id) {
+                        if rec.id != self.spec.id && key_id == self.key_id_of(rec.id) {
                             self.step = rec.step.saturating_add(1);
                             self.started = true;
                             self.buffer.clear();

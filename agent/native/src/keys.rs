@@ -7,15 +7,35 @@ pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
     ((x / cell).floor() as i64, (y / cell).floor() as i64)
 }
 
-/// The key of agent `id`'s state in cell `c`: the id is in the key so the router's access control lets
-/// each agent publish only its own states (docs/security.md); receivers check it equals the record's id.
-pub fn state_key(run: &str, c: (i64, i64), id: u32) -> String {
-    format!("{PREFIX}/{run}/state/{}/{}/{id}", c.0, c.1)
+/// The key of a state published in cell `c`. With `Some(id)` (access level `acl`) the agent's id is the last
+/// chunk, so the router's access control lets each agent publish only its own states (docs/security.md);
+/// with None one exact key per cell, id only in the record, which zenoh dispatches by a table look-up
+/// (docs/benchmarks/native.md, security.md: the id in the key costs 31-42 % of the steps/s).
+pub fn state_key(run: &str, c: (i64, i64), id: Option<u32>) -> String {
+    match id {
+        Some(id) => format!("{PREFIX}/{run}/state/{}/{}/{id}", c.0, c.1),
+        None => format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1),
+    }
 }
 
-/// Every agent's state in cell `c`: what an agent subscribes to for each cell it watches.
-pub fn cell_expr(run: &str, c: (i64, i64)) -> String {
-    format!("{PREFIX}/{run}/state/{}/{}/*", c.0, c.1)
+/// What an agent subscribes to for each cell it watches: every agent's key in it, or the cell's one key.
+pub fn cell_expr(run: &str, c: (i64, i64), ids: bool) -> String {
+    if ids {
+        format!("{PREFIX}/{run}/state/{}/{}/*", c.0, c.1)
+    } else {
+        state_key(run, c, None)
+    }
+}
+
+/// The sender id of a state key (`…/state/<cx>/<cy>/<id>`), None for a cell key (`…/state/<cx>/<cy>`)
+/// or anything else.
+pub fn state_sender(key: &str) -> Option<u32> {
+    let chunks: Vec<&str> = key.split('/').collect();
+    if chunks.len() == 6 && chunks[2] == "state" {
+        id_from_key(key)
+    } else {
+        None
+    }
 }
 
 pub fn alive_key(run: &str, id: u32) -> String {
@@ -74,9 +94,13 @@ mod tests {
 
     #[test]
     fn keys_match_the_python_ones() {
-        assert_eq!(state_key("r", (-1, 2), 7), "fluidswarm/r/state/-1/2/7");
-        assert_eq!(cell_expr("r", (-1, 2)), "fluidswarm/r/state/-1/2/*");
-        assert_eq!(id_from_key(&state_key("r", (-1, 2), 7)), Some(7));
+        assert_eq!(state_key("r", (-1, 2), Some(7)), "fluidswarm/r/state/-1/2/7");
+        assert_eq!(state_key("r", (-1, 2), None), "fluidswarm/r/state/-1/2");
+        assert_eq!(cell_expr("r", (-1, 2), true), "fluidswarm/r/state/-1/2/*");
+        assert_eq!(cell_expr("r", (-1, 2), false), "fluidswarm/r/state/-1/2");
+        assert_eq!(state_sender(&state_key("r", (-1, 2), Some(7))), Some(7));
+        assert_eq!(state_sender(&state_key("r", (-1, 2), None)), None);
+        assert_eq!(state_sender("fluidswarm/r/final/7"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/12"), Some(12));
         assert_eq!(id_from_key("fluidswarm/r/alive/x1"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/1234567890"), None);

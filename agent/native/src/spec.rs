@@ -24,6 +24,9 @@ pub struct AgentSpec {
     pub drop_out: f64,
     pub secret: String,
     pub join: bool,
+    /// States on `state/<cx>/<cy>/<id>` (the access-control level `acl`: the router then lets each agent
+    /// publish only its own) instead of one exact key per cell (docs/security.md, docs/protocol.md).
+    pub state_key_ids: bool,
     pub mode: Mode,
     pub rate: f64,
     pub max_age: f64,
@@ -34,7 +37,7 @@ pub struct AgentSpec {
 
 const FIELDS: &[&str] = &[
     "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
-    "secret", "join", "mode", "rate", "max_age", "neighbours",
+    "secret", "join", "state_key_ids", "mode", "rate", "max_age", "neighbours",
 ];
 const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
@@ -234,6 +237,11 @@ impl AgentSpec {
             Some(Value::Bool(b)) => *b,
             Some(v) => return err(format!("join must be true or false, got {v}")),
         };
+        let state_key_ids = match obj.get("state_key_ids") {
+            None => false,
+            Some(Value::Bool(b)) => *b,
+            Some(v) => return err(format!("state_key_ids must be true or false, got {v}")),
+        };
         let secret = string(&obj, "secret")?;
         if secret.len() % 2 != 0 || !secret.bytes().all(|b| b.is_ascii_hexdigit()) {
             return err("secret must be hex".into());
@@ -251,6 +259,7 @@ impl AgentSpec {
             drop_out,
             secret,
             join,
+            state_key_ids,
             mode,
             rate: positive(&obj, "rate", 12.0)?,
             max_age: positive(&obj, "max_age", 1.0)?,
