@@ -9,7 +9,7 @@ import sys
 import time
 
 from agent.protocol import keys
-from agent.supervisor import die_with_parent
+from agent.supervisor import die_with_parent, stop_process
 
 
 class RecorderProcess:
@@ -50,14 +50,7 @@ class RecorderProcess:
 
     def stop(self, timeout: float = 60.0) -> int | None:
         """SIGTERM the recorder: it writes the pending steps and the MCAP footer, then exits."""
-        rec = self.proc
-        if rec is None:
+        if self.proc is None:
             return None
-        if rec.poll() is None:
-            rec.terminate()
-            try:
-                rec.wait(timeout)
-            except subprocess.TimeoutExpired:
-                rec.kill()
-                rec.wait(5)
-        return rec.returncode
+        stop_process(self.proc, timeout)
+        return self.proc.returncode

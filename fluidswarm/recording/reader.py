@@ -23,6 +23,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from agent.protocol.errors import UserError
+from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.writer import JSON_KEYS
@@ -166,19 +167,27 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
 
-def recorded_fidelity(path: str | os.PathLike):
-    """The recorder's score of the final formation (metadata `fidelity`, coordinator/control/fidelity.py
-    Fidelity) without reading the steps, or None if the file holds none (no target, or no state)."""
-    from coordinator.control.fidelity import Fidelity
+def _scores(values: dict[str, str]) -> dict[str, float]:
+    """The numbers of metadata record `fidelity` (writer.write_fidelity)."""
+    return {k: float(v) for k, v in decode_metadata(values).items() if isinstance(v, (int, float))}
 
+
+def as_fidelity(scores: dict[str, float]) -> Fidelity | None:
+    """A run's recorded scores (`Run.fidelity`) as a Fidelity; None when the file holds none."""
+    if not scores:
+        return None
+    return Fidelity(scores["fidelity_iou"], scores["fidelity_inside"], scores["fidelity_coverage"], scores["nn_cv"])
+
+
+def recorded_fidelity(path: str | os.PathLike) -> Fidelity | None:
+    """The recorder's score of the final formation (metadata `fidelity`) without reading the steps, or None if
+    the file holds none (no target, or no state)."""
     path = Path(path)
     with _open_checked(path) as fh:
         try:
             for record in make_reader(fh).iter_metadata():
                 if record.name == "fidelity":
-                    f = decode_metadata(record.metadata)
-                    return Fidelity(float(f["fidelity_iou"]), float(f["fidelity_inside"]),
-                                    float(f["fidelity_coverage"]), float(f["nn_cv"]))
+                    return as_fidelity(_scores(record.metadata))
         except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
     return None
@@ -193,11 +202,10 @@ def _read(path: Path, reader, want_images: bool) -> Run:
         if record.name == "run":
             metadata = decode_metadata(record.metadata)
         elif record.name == "fidelity":
-            scores = decode_metadata(record.metadata)
+            scores = _scores(record.metadata)
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
-    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata,
-              fidelity={k: float(v) for k, v in scores.items() if isinstance(v, (int, float))})
+    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores)
     for att in reader.iter_attachments():
         meta = target_meta.get(att.name)
         if meta is None:

@@ -14,7 +14,7 @@ from agent.protocol.errors import UserError
 from fluidswarm.recording.analysis import Series, series
 from coordinator.control.fidelity import Fidelity, fidelity
 from fluidswarm.recording.progress import Progress
-from fluidswarm.recording.reader import Run, load_run
+from fluidswarm.recording.reader import Run, as_fidelity, load_run
 from fluidswarm.recording.render import GIF_SIZE, SNAPSHOT_SIZE, FormationRenderer, plot_series, save_gif, save_png
 
 SNAPSHOT_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -36,9 +36,9 @@ class ReplayResult:
 def final_fidelity(run: Run) -> Fidelity | None:
     """Fidelity of the last recorded step's particles against the last target: the recorder's own score
     when the file holds it (scored once, at the end of the run), else (older files) scored here."""
-    if run.fidelity:
-        f = run.fidelity
-        return Fidelity(f["fidelity_iou"], f["fidelity_inside"], f["fidelity_coverage"], f["nn_cv"])
+    recorded = as_fidelity(run.fidelity)
+    if recorded is not None:
+        return recorded
     if run.target is None or not run.frames:
         return None
     return fidelity(run.target.mask, run.target.transform, run.frames[-1].positions)

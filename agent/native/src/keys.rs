@@ -30,8 +30,13 @@ pub fn cell_expr(run: &str, c: (i64, i64), ids: bool) -> String {
 /// The sender id of a state key (`…/state/<cx>/<cy>/<id>`), None for a cell key (`…/state/<cx>/<cy>`)
 /// or anything else.
 pub fn state_sender(key: &str) -> Option<u32> {
-    let chunks: Vec<&str> = key.split('/').collect();
-    if chunks.len() == 6 && chunks[2] == "state" {
+    // On every received state: no allocation, one pass over the chunks.
+    let (mut n, mut state) = (0, false);
+    for (k, chunk) in key.split('/').enumerate() {
+        n = k + 1;
+        state |= k == 2 && chunk == "state";
+    }
+    if n == 6 && state {
         id_from_key(key)
     } else {
         None
