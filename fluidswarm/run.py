@@ -80,7 +80,7 @@ class RunOptions:
     written, no recorder); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:
     fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; live: HOST:PORT
     of the recorder's Foxglove server; commands: the agents follow signed gesture commands; progress: the
-    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect/user/password: the bus (None: a fresh run on an embedded router)."""
+    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect: the bus (None: a fresh run on an embedded router); auth_file: with connect, the run's users file (else $FLUIDSWARM_AUTH_FILE; docs/security.md)."""
 
     name: str
     out: Path | None = None
@@ -92,8 +92,7 @@ class RunOptions:
     progress: bool = False
     run: str | None = None
     connect: str | None = None
-    user: str = ""
-    password: str = ""
+    auth_file: str = ""
 
 
 @dataclass
@@ -189,7 +188,7 @@ class Run:
         o = self.options
         try:
             self.launcher = Launcher(run=o.run, connect=o.connect, agent_timeout=o.neighbour_timeout,
-                                     user=o.user, password=o.password, commands=o.commands)
+                                     auth_file=o.auth_file, commands=o.commands)
         except ValueError as exc:  # a bad run name
             raise UserError(str(exc)) from None
         if o.out is not None:

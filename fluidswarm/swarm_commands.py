@@ -23,8 +23,7 @@ def register(sub) -> None:
     p.add_argument("--run", help="run name (must match on every host of a split run)")
     p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.default, help="s before a silent neighbour is dropped")
     p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
-    p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
-    p.add_argument("--password", default="")
+    _add_auth_file_argument(p)
     p.add_argument("--mode", choices=("lockstep", "async"), default="lockstep",
                    help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)")
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
@@ -40,10 +39,18 @@ def register(sub) -> None:
     p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.exact, help="s before a silent neighbour is dropped")
     p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
-    p.add_argument("--user", default="", help="Zenoh user name (router with --auth-file)")
-    p.add_argument("--password", default="")
+    _add_auth_file_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_verify)
+
+
+def _add_auth_file_argument(p) -> None:
+    # No --user/--password: a secret on the command line is readable by every local user (ps); the users
+    # file (mode 0600) gives each process of this launcher its own role's line (docs/security.md).
+    p.add_argument("--auth-file", metavar="FILE",
+                   help="with --connect: the run's users file (user:password lines, the routers hold the same; "
+                        "default $FLUIDSWARM_AUTH_FILE); this launcher authenticates as 'launcher' and hands each "
+                        "process its own line")
 
 
 def _agent(args) -> int:
@@ -81,11 +88,28 @@ def _check_counts(agents: int, steps: int) -> None:
         raise UserError(f"--steps: must be >= 0, got {steps}")
 
 
+def _auth_file(args) -> str:
+    """--auth-file, checked before anything starts: one line naming the file and the problem."""
+    from agent.protocol.access import AuthFileError, read_users_file
+
+    if not args.auth_file:
+        return ""
+    if not args.connect:
+        raise UserError(f"--auth-file {args.auth_file}: needs --connect (an embedded router makes its own "
+                        "credentials for each run)")
+    try:
+        users = read_users_file(args.auth_file)
+    except AuthFileError as exc:
+        raise UserError(f"--auth-file {exc}") from None
+    if not any(c.user == "launcher" for c in users):
+        raise UserError(f"--auth-file {args.auth_file}: no 'launcher' line (this launcher's own credentials)")
+    return args.auth_file
+
+
 def _options(args, name: str, timeout: float):
     from fluidswarm.run import RunOptions
 
-    return RunOptions(name, None, timeout, run=args.run, connect=args.connect, user=args.user,
-                      password=args.password)
+    return RunOptions(name, None, timeout, run=args.run, connect=args.connect, auth_file=_auth_file(args))
 
 
 def _launch(args) -> int:

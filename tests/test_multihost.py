@@ -4,6 +4,7 @@ rogues without the right credentials are locked out (docs/multi-host.md, docs/se
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -61,7 +62,10 @@ def hosts(tmp_path):
     h.popen("b", FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tls/{a}:{TLS_PORT}"] + auth + tls("b"),
             stdout=subprocess.PIPE, text=True)
     time.sleep(2.0)
-    h.env = dict(os.environ, FLUIDSWARM_AUTH_FILE=str(users))  # each launcher hands its processes their lines
+    # each launcher hands its processes their lines: host A's launcher reads the file named by --auth-file,
+    # host B's the one in FLUIDSWARM_AUTH_FILE (both ways a launcher gets it)
+    h.auth = {"a": ["--auth-file", str(users)], "b": []}
+    h.env = {"a": dict(os.environ), "b": dict(os.environ, FLUIDSWARM_AUTH_FILE=str(users))}
     h.users = users
     try:
         yield h
@@ -69,27 +73,31 @@ def hosts(tmp_path):
         h.close()
 
 
-def figures(text: str) -> dict:
-    return dict(line.split("=", 1) for line in text.split() if "=" in line)
+def record(text: str) -> dict:
+    """The run's record (`--json`: one JSON object, the last line of stdout)."""
+    return json.loads(text.strip().splitlines()[-1])
 
 
 def test_split_swarm_over_tls_reproduces_single_host_result_and_rogues_are_locked_out(hosts):
     a, b = hosts.addr[("a", "b")], hosts.addr[("b", "a")]
     rogue_target = hosts.addr[("a", "c")]
-    common = ["verify", "--agents", "40", "--steps", "120", "--run", "split"]
-    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=hosts.env)
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"], **kw)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"], **kw)
+    common = ["verify", "--agents", "40", "--steps", "120", "--run", "split", "--json"]
+    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"] + hosts.auth["a"],
+                     env=hosts.env["a"], **kw)
+    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
+                     env=hosts.env["b"], **kw)
     # the rogue knows a real user name (agent-3) but not its password, then tries without any
     rogue = hosts.popen("c", [sys.executable, "-c", ROGUE, f"tcp/{rogue_target}:{PORT}"],
                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     out_a, err_a = pa.communicate(timeout=300)
     out_b, err_b = pb.communicate(timeout=300)
     r_out, r_err = rogue.communicate(timeout=60)
-    fa, fb = figures(out_a), figures(out_b)
-    print(fa, fb, r_out.strip())
     assert pa.returncode == 0 and pb.returncode == 0, err_a + err_b
-    assert float(fa["max_position_error"]) <= 1e-9 and float(fb["max_position_error"]) <= 1e-9
+    fa, fb = record(out_a), record(out_b)
+    print(fa["figures"], fb["figures"], r_out.strip())
+    assert fa["finished"] == 20 and fb["finished"] == 20
+    assert fa["figures"]["max_position_error"] <= 1e-9 and fb["figures"]["max_position_error"] <= 1e-9
     assert "wrong_password=locked_out" in r_out and "no_credentials=locked_out" in r_out, r_out + r_err
 
 
@@ -98,19 +106,21 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     mcap = tmp_path / "a.mcap"
     # Enough steps that the cut comes mid-run (the compiled agents do 500 steps in well under the 9 s below).
     steps = 4000
-    common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0"]
-    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=hosts.env)
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)], **kw)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"], **kw)
+    common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0", "--json"]
+    kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)]
+                     + hosts.auth["a"], env=hosts.env["a"], **kw)
+    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
+                     env=hosts.env["b"], **kw)
     time.sleep(9.0)  # start-up, then some lockstep steps with both hosts
     router_b = hosts.procs[1]
     router_b.kill()
     out_a, err_a = pa.communicate(timeout=300)
     pb.terminate()
-    fa = figures(out_a)
-    print(fa)
     assert pa.returncode == 0, err_a
-    assert fa["finished"] == "20"
+    fa = record(out_a)
+    print({k: fa[k] for k in ("finished", "steps_per_second", "failures")})
+    assert fa["finished"] == 20
     run = load_run(mcap, images=False)
     lost = {e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < steps}
     assert len(lost) >= 10
