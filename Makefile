@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CARGO ?= $(shell command -v cargo 2>/dev/null || echo $(HOME)/.cargo/bin/cargo)
 NATIVE := agent/native
 AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
-AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs)
+AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
 
 .PHONY: demo test install clean bench agent
 

@@ -1,0 +1,149 @@
+//! The agent's life: start-up (fixed subscribers, the gesture command, the alive token, the start barrier or a
+//! late join), the run in its mode, and its end (final state, report, exit code).
+
+use std::collections::HashSet;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+use zenoh::Wait;
+
+use super::inbox::Msg;
+use super::report::cpu_seconds;
+use super::{unix_now, Agent, Halt, EXIT_FELL_BEHIND, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
+use crate::keys;
+use crate::spec::Mode;
+use crate::sph::{X, Y};
+use crate::wire;
+
+impl Agent {
+
+    pub fn run(&mut self) -> i32 {
+        let code = match self.run_inner() {
+            Ok(()) => {
+                self.t_end = Some(unix_now());
+                self.publish(); // the final state, so neighbours still waiting for it are not held up
+                self.report("done");
+                EXIT_OK
+            }
+            Err(Halt::FellBehind) => {
+                self.event("fell_behind", json!({}));
+                self.report("fell_behind");
+                EXIT_FELL_BEHIND
+            }
+            Err(Halt::Stop) => {
+                self.report("stopped");
+                EXIT_STOPPED
+            }
+            Err(Halt::NoStart) => EXIT_NO_START,
+        };
+        self.subscribers.clear();
+        self._fixed.clear();
+        self.flush();
+        code
+    }
+
+    fn run_inner(&mut self) -> Result<(), Halt> {
+        if let Err(e) = self.declare_fixed().and_then(|_| self.update_subscriptions()) {
+            eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
+            return Err(Halt::Stop);
+        }
+        let start_deadline = Instant::now() + Duration::from_secs_f64(self.spec.start_timeout);
+        if self.controller.is_some() && !self.spec.join {
+            // Ready only once the gesture command is known, so every agent applies it from step 0.
+            while !self.controller.as_ref().is_some_and(|c| c.has_command()) {
+                if Instant::now() > start_deadline {
+                    return Err(Halt::NoStart);
+                }
+                self.drain(0.25)?;
+            }
+        }
+        // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
+        // agent's cell subscribers are declared and no step-0 state is missed. The state publisher too: 1000
+        // publisher declarations in the start burst delayed step-0 states past the neighbour timeout.
+        self.declare_publisher();
+        match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
+            Ok(t) => self._tokens.push(t),
+            Err(e) => {
+                eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
+                return Err(Halt::Stop);
+            }
+        }
+        if self.spec.join {
+            self.join(start_deadline)?;
+        } else {
+            while !self.started {
+                if Instant::now() > start_deadline {
+                    return Err(Halt::NoStart);
+                }
+                self.drain(0.25)?;
+            }
+            self.initial_neighbours();
+        }
+        self.event("started", json!({}));
+        self.t_start = Some(unix_now());
+        self.cpu_at_start = Some(cpu_seconds());
+        self.last_step_done = Instant::now();
+        match self.spec.mode {
+            Mode::Lockstep => self.run_lockstep(),
+            Mode::Async => self.run_async(),
+        }
+    }
+
+    /// Step-0 neighbours: of the agents the launcher placed nearby (the spec's `neighbours`), those whose
+    /// initial cell we watch — the set a query for born tokens in our cells returned before, without N × 25
+    /// liveliness queries that each walk every token in the router (docs/benchmarks/native.md, N = 1000).
+    fn initial_neighbours(&mut self) {
+        let cells: HashSet<(i64, i64)> =
+            keys::covering_cells(self.state[X], self.state[Y], self.r_sub, self.cell).into_iter().collect();
+        for &(j, x, y) in &self.spec.neighbours {
+            if j != self.spec.id && cells.contains(&keys::cell_of(x, y, self.cell)) && !self.latest.contains_key(&j) {
+                self.latest.insert(j, (-1, f64::NAN, f64::NAN));
+            }
+        }
+    }
+
+    /// A late joiner adopts the step of the first state it hears around it (docs/protocol.md).
+    fn join(&mut self, deadline: Instant) -> Result<(), Halt> {
+        self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_state = true;
+        let result = self.await_first_state(deadline);
+        self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_state = false;
+        result
+    }
+
+    fn await_first_state(&mut self, deadline: Instant) -> Result<(), Halt> {
+        loop {
+            if STOP.load(Ordering::Relaxed) {
+                return Err(Halt::Stop);
+            }
+            let shared = Arc::clone(&self.shared);
+            let msg = {
+                let mut inbox = shared.inbox.lock().unwrap_or_else(|e| e.into_inner());
+                if inbox.queue.is_empty() {
+                    inbox = shared.bell.wait_timeout(inbox, Duration::from_millis(250)).unwrap_or_else(|e| e.into_inner()).0;
+                    inbox.rung = false;
+                }
+                inbox.queue.pop_front()
+            };
+            match msg {
+                None => {
+                    if Instant::now() > deadline {
+                        return Err(Halt::Stop);
+                    }
+                }
+                Some(Msg::State(data, key_id)) => {
+                    if let Ok(rec) = wire::decode_state(&data) {
+                        if rec.id != self.spec.id && key_id == self.key_id_of(rec.id) {
+                            self.step = rec.step.saturating_add(1);
+                            self.started = true;
+                            self.buffer.clear();
+                            return Ok(());
+                        }
+                    }
+                }
+                Some(other) => self.handle(other)?,
+            }
+        }
+    }
+}

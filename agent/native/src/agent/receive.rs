@@ -1,0 +1,142 @@
+//! The receive path: what each queued message does to the agent's neighbour table (states, liveliness
+//! relayed by ctl/gone, the launcher's ctl messages, gesture commands).
+
+use std::time::Instant;
+
+use serde_json::json;
+
+use super::inbox::Msg;
+use super::{unix_now, Agent, Halt, BEHIND_SENDERS, BEHIND_STEPS, MAX_AHEAD};
+use crate::spec::Mode;
+use crate::sph::{X, Y};
+use crate::wire;
+
+impl Agent {
+
+    pub(super) fn handle(&mut self, msg: Msg) -> Result<(), Halt> {
+        match msg {
+            Msg::State(data, key_id) => self.handle_state(&data, key_id),
+            Msg::Gone(j) => {
+                if j != self.spec.id && self.dead.insert(j) {
+                    self.latest.remove(&j);
+                    self.fresh.remove(&j);
+                    self.counters.deaths_seen += 1;
+                }
+                Ok(())
+            }
+            Msg::Ctl(key, payload) => {
+                if key.ends_with("/start") {
+                    self.started = true;
+                    // Paced from the first step: until the launcher's first tick (it ticks once it has seen
+                    // states) an agent with few expected neighbours would race CLOCK_LEAD+ steps ahead and
+                    // make its slower neighbours conclude they fell behind.
+                    self.clock.get_or_insert(0);
+                } else if key.ends_with("/stop") {
+                    return Err(Halt::Stop);
+                } else if key.ends_with("/clock") && payload.len() == 8 {
+                    let mut b = [0u8; 8];
+                    b.copy_from_slice(&payload);
+                    self.clock = Some(u64::from_le_bytes(b));
+                } else if key.ends_with("/gone") && payload.len() == 4 {
+                    // The launcher relays an agent's lost liveliness (docs/protocol.md: ctl/gone): one
+                    // subscriber per agent on every other agent's token was O(N²) messages at start-up.
+                    let mut b = [0u8; 4];
+                    b.copy_from_slice(&payload);
+                    let j = u32::from_le_bytes(b);
+                    if j < (1u32 << 31) {
+                        return self.handle(Msg::Gone(j));
+                    }
+                } else if key.ends_with("/end") && payload.len() == 8 {
+                    let mut b = [0u8; 8];
+                    b.copy_from_slice(&payload);
+                    self.end = Some(u64::from_le_bytes(b));
+                }
+                Ok(())
+            }
+            Msg::Command(payload) => {
+                let Some(ctl) = self.controller.as_mut() else { return Ok(()) };
+                let first = !ctl.has_command();
+                match ctl.offer(&payload, unix_now()) {
+                    Some(reason) => *self.counters.rejected.entry(format!("command_{reason}")).or_insert(0) += 1,
+                    None => {
+                        if first && ctl.has_command() {
+                            let since = unix_now() - self.session_opened_at;
+                            self.event("command_received", json!({"seconds_since_session_open": since}));
+                        }
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
+    pub(super) fn handle_state(&mut self, data: &[u8], key_id: Option<u32>) -> Result<(), Halt> {
+        let rec = match wire::decode_state(data) {
+            Ok(r) => r,
+            Err(reason) => {
+                self.reject(reason);
+                return Ok(());
+            }
+        };
+        // With ids in the state keys the router lets an agent publish only under its own id (docs/security.md):
+        // a record naming another id is a forgery by the key's owner. Cell keys carry no id.
+        if key_id != self.key_id_of(rec.id) {
+            self.reject("key");
+            return Ok(());
+        }
+        let (j, step, values) = (rec.id, rec.step, rec.values);
+        if j == self.spec.id {
+            return Ok(());
+        }
+        self.note_sender(j, values[X], values[Y]);
+        if self.dead.contains(&j) {
+            // A state it published while alive is genuine: an agent that finished (or died) just after
+            // publishing its last steps has its liveliness DELETE delivered first (declarations travel at a
+            // higher priority than data), and neighbours still a few steps behind need those states to stay
+            // exact. It is used for its step, but the dead agent is never expected again.
+            if step >= self.step && self.spec.mode == Mode::Lockstep {
+                self.buffer.entry(step).or_default().insert(j, values);
+            } else {
+                self.reject("dead");
+            }
+            return Ok(());
+        }
+        if step as u64 > self.step as u64 + MAX_AHEAD as u64 {
+            self.reject("step");
+            return Ok(());
+        }
+        self.counters.msgs_received += 1;
+        let newer = self.latest.get(&j).map_or(true, |last| step as i64 >= last.0);
+        if newer {
+            let now = Instant::now();
+            self.latest.insert(j, (step as i64, values[X], values[Y]));
+            self.heard_at.insert(j, now);
+            if self.spec.mode == Mode::Async {
+                self.fresh.insert(j, (now, values));
+            }
+        }
+        if self.spec.mode == Mode::Async {
+            return Ok(());
+        }
+        if step < self.step {
+            self.counters.stale += 1;
+            return Ok(());
+        }
+        self.buffer.entry(step).or_default().insert(j, values);
+        if self.started && step >= self.step + BEHIND_STEPS {
+            // A particle within the support this far ahead is no longer waiting for us; only an agent
+            // that itself stalled (SIGSTOP) concludes it was dropped, a slower group is waited for.
+            let dx = values[X] - self.state[X];
+            let dy = values[Y] - self.state[Y];
+            let stalled = self.last_step_done.elapsed().as_secs_f64() > self.spec.timeout;
+            let support = self.params.support();
+            if stalled && dx * dx + dy * dy <= support * support {
+                self.ahead_senders.insert(j);
+                if self.ahead_senders.len() >= BEHIND_SENDERS {
+                    return Err(Halt::FellBehind);
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,97 @@
+//! What the agent tells the launcher and the recorder: events (event/<id>) and the final report
+//! (final/<id>), sent with congestion control Block, and the flush that makes sure the report has left.
+
+use std::time::Duration;
+
+use serde_json::{json, Map, Value};
+use zenoh::qos::CongestionControl;
+use zenoh::Wait;
+
+use super::Agent;
+use crate::keys;
+
+/// This process's CPU time in seconds (user + system).
+pub(super) fn cpu_seconds() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes into the timespec we own.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// Peak resident memory (VmHWM) of this process in MB: its own, not the forking parent's (profile.md).
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map(|kb| kb / 1024.0)
+        .unwrap_or(0.0)
+}
+
+impl Agent {
+    pub(super) fn event(&self, what: &str, fields: Value) {
+        let mut msg = Map::new();
+        msg.insert("id".into(), json!(self.spec.id));
+        msg.insert("step".into(), json!(self.step));
+        msg.insert("event".into(), json!(what));
+        if let Value::Object(extra) = fields {
+            msg.extend(extra);
+        }
+        // Block, not the default Drop: events and the final report are few and must not be lost under load
+        // (the recorder's MCAP and the launcher's tally depend on them).
+        let _ = self
+            .session
+            .put(keys::event_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .congestion_control(CongestionControl::Block)
+            .wait();
+    }
+
+    pub(super) fn report(&mut self, status: &str) {
+        let c = &self.counters;
+        let mut msg = Map::new();
+        msg.insert("v".into(), json!(1));
+        msg.insert("id".into(), json!(self.spec.id));
+        msg.insert("status".into(), json!(status));
+        msg.insert("steps".into(), json!(self.step));
+        msg.insert("state".into(), json!(self.state.to_vec()));
+        msg.insert("msgs_received".into(), json!(c.msgs_received));
+        msg.insert("neighbours".into(), json!(c.neighbours));
+        msg.insert("rejected".into(), json!(c.rejected));
+        msg.insert("timeouts".into(), json!(c.timeouts));
+        msg.insert("deaths_seen".into(), json!(c.deaths_seen));
+        msg.insert("stale".into(), json!(c.stale));
+        msg.insert("dropped_out".into(), json!(c.dropped_out));
+        msg.insert("lost".into(), json!(c.lost));
+        msg.insert("t_start".into(), json!(self.t_start));
+        msg.insert("t_end".into(), json!(self.t_end));
+        msg.insert("session_opened_at".into(), json!(self.session_opened_at));
+        msg.insert("rss_mb".into(), json!(peak_rss_mb()));
+        msg.insert("cpu_seconds".into(), json!(cpu_seconds()));
+        msg.insert("cpu_seconds_at_start".into(), json!(self.cpu_at_start));
+        msg.insert("agent".into(), json!("native"));
+        if let Some(ctl) = &self.controller {
+            msg.extend(ctl.report());
+        }
+        let _ = self
+            .session
+            .put(keys::final_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .congestion_control(CongestionControl::Block)
+            .wait();
+    }
+
+    /// Make sure the final report has left: a query to the router travels behind it on the same link,
+    /// so its answer means the router has the report (the session's close does not wait for the queue).
+    /// A plain query on our own final key: no queryable serves it, so the router answers at once (a liveliness
+    /// query would walk every token of the swarm in the router, N times at the end of a run).
+    pub(super) fn flush(&self) {
+        if let Ok(replies) = self
+            .session
+            .get(keys::final_key(&self.spec.run, self.spec.id))
+            .timeout(Duration::from_secs(1))
+            .wait()
+        {
+            while replies.recv().is_ok() {}
+        }
+    }
+}
