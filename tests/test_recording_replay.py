@@ -1,6 +1,8 @@
 """`fluidswarm replay`: pictures, GIF, the three plots with one value per step, fidelity, --check, and
 one-line errors for bad files (issue 6)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -9,7 +11,7 @@ from fluidswarm.cli import main
 from agent.protocol.errors import UserError
 from fluidswarm.recording.analysis import series
 from fluidswarm.recording.reader import check, load_run
-from fluidswarm.recording.render import GIF_SIZE, PLOT_SIZE, SNAPSHOT_SIZE
+from fluidswarm.recording.render import GIF_SIZE, PLOT_SIZE, SNAPSHOT_SIZE, FormationRenderer
 from fluidswarm.recording.replay import replay
 from fluidswarm.recording.synthetic import write_synthetic_run
 
@@ -30,6 +32,29 @@ def _image(path, size):
         arr = np.asarray(im.convert("RGB"))
     assert arr.std() > 1.0  # not a blank canvas
     return arr
+
+
+def test_blitted_frames_equal_a_full_draw_across_a_target_change(recorded):
+    """The renderer keeps the axes and target as pixels and draws only what moves: every frame must equal
+    matplotlib's full draw of the same figure, also after the target changed mid-run (a gesture sequence)."""
+    run = load_run(recorded, images=False)
+    first = run.targets[0]
+    mid = run.frames[len(run.frames) // 2].t
+    run.targets.append(dataclasses.replace(first, t=mid, mask=np.roll(first.mask, 20, axis=1)))
+    blit = FormationRenderer(run, GIF_SIZE)
+    frames = [blit.render(f) for f in run.frames]
+    assert run.scene_at(run.frames[-1].t) is not None  # the scene's waypoints and ellipses are drawn too
+    full = FormationRenderer(run, GIF_SIZE)
+    for k in (0, len(run.frames) // 2 - 1, len(run.frames) // 2, len(run.frames) - 1):
+        full.render(run.frames[k])
+        for artist in full.ax.get_children():
+            artist.set_animated(False)
+        full.canvas.draw()
+        want = np.asarray(full.canvas.buffer_rgba())[..., :3]
+        assert np.array_equal(frames[k], want), f"frame {k} differs from a full draw"
+        for artist in (*full._patches, full._scatter, full._title):
+            artist.set_animated(True)
+    assert not np.array_equal(frames[0], frames[-1])
 
 
 def test_replay_writes_snapshots_gif_and_plots(recorded, tmp_path):
