@@ -1,8 +1,13 @@
 //! What one agent process is told at start (`--spec JSON`, written by agent/launcher.py from
 //! agent/protocol/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
+//! The field checks are in spec/fields.rs.
+
+mod fields;
+
+use serde_json::Value;
 
 use crate::sph::{Control, Params};
-use serde_json::{Map, Value};
+use fields::{err, number, only, parse_control, parse_neighbours, parse_params, positive, string, valid_run_name};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
@@ -39,148 +44,6 @@ const FIELDS: &[&str] = &[
     "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
     "secret", "join", "state_key_ids", "mode", "rate", "max_age", "neighbours",
 ];
-const PARAM_FIELDS: &[&str] =
-    &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
-const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
-
-fn err<T>(msg: String) -> Result<T, String> {
-    Err(format!("agent spec: {msg}"))
-}
-
-/// A JSON number (not a bool: serde_json keeps them apart), finite.
-fn number(v: &Value) -> Option<f64> {
-    v.as_f64().filter(|x| x.is_finite())
-}
-
-fn only(obj: &Map<String, Value>, allowed: &[&str], prefix: &str) -> Result<(), String> {
-    let mut unknown: Vec<&String> = obj.keys().filter(|k| !allowed.contains(&k.as_str())).collect();
-    unknown.sort();
-    match unknown.first() {
-        Some(k) => err(format!("unknown field {prefix}{k:?}")),
-        None => Ok(()),
-    }
-}
-
-fn positive(obj: &Map<String, Value>, name: &str, default: f64) -> Result<f64, String> {
-    match obj.get(name) {
-        None => Ok(default),
-        Some(v) => match number(v) {
-            Some(x) if x > 0.0 => Ok(x),
-            _ => err(format!("{name} must be > 0, got {v}")),
-        },
-    }
-}
-
-fn string(obj: &Map<String, Value>, name: &str) -> Result<String, String> {
-    match obj.get(name) {
-        None => Ok(String::new()),
-        Some(Value::String(s)) => Ok(s.clone()),
-        Some(v) => err(format!("{name} must be a string, got {v}")),
-    }
-}
-
-/// `neighbours`: a list of [id, x, y] (id an integer in [0, 2^31), x and y finite numbers).
-fn parse_neighbours(v: Option<&Value>) -> Result<Vec<(u32, f64, f64)>, String> {
-    let Some(v) = v else { return Ok(Vec::new()) };
-    let Some(rows) = v.as_array() else { return err(format!("neighbours must be a list of [id, x, y], got {v}")) };
-    rows.iter()
-        .map(|row| match row.as_array().map(|a| a.as_slice()) {
-            Some([id, x, y]) => match (id.as_u64(), number(x), number(y)) {
-                (Some(i), Some(x), Some(y)) if i < (1u64 << 31) => Ok((i as u32, x, y)),
-                _ => err(format!("neighbours entry must be [id, x, y] with an id in [0, 2^31) and finite x, y, got {row}")),
-            },
-            _ => err(format!("neighbours entry must be [id, x, y], got {row}")),
-        })
-        .collect()
-}
-
-fn valid_run_name(run: &str) -> bool {
-    (1..=64).contains(&run.len()) && run.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
-}
-
-fn parse_params(v: Option<&Value>) -> Result<Params, String> {
-    let mut p = Params::default();
-    let obj = match v {
-        None => return Ok(p),
-        Some(Value::Object(o)) => o,
-        Some(other) => return err(format!("params must be an object, got {other}")),
-    };
-    only(obj, PARAM_FIELDS, "params.")?;
-    let positive_names = ["h", "mass", "rho0", "gamma", "kappa", "dt", "v_max"];
-    for (name, value) in obj {
-        let slot = match name.as_str() {
-            "h" => &mut p.h,
-            "mass" => &mut p.mass,
-            "rho0" => &mut p.rho0,
-            "gamma" => &mut p.gamma,
-            "beta" => &mut p.beta,
-            "beta_pi" => &mut p.beta_pi,
-            "mu" => &mut p.mu,
-            "kappa" => &mut p.kappa,
-            "dt" => &mut p.dt,
-            "v_max" => &mut p.v_max,
-            "drag" => &mut p.drag,
-            _ => continue,
-        };
-        let x = match number(value) {
-            Some(x) => x,
-            None => return err(format!("params.{name} must be a finite number, got {value}")),
-        };
-        if positive_names.contains(&name.as_str()) && x <= 0.0 {
-            return err(format!("params.{name} must be > 0, got {value}"));
-        }
-        if x < 0.0 {
-            return err(format!("params.{name} must be >= 0, got {value}"));
-        }
-        *slot = x;
-    }
-    if let Some(d) = obj.get("domain") {
-        let values: Option<Vec<f64>> = d.as_array().map(|a| a.iter().filter_map(number).collect());
-        match values {
-            Some(v) if v.len() == 4 && d.as_array().map(|a| a.len()) == Some(4) && v[0] < v[1] && v[2] < v[3] => {
-                p.domain = [v[0], v[1], v[2], v[3]]
-            }
-            _ => return err(format!("params.domain must be [xmin, xmax, ymin, ymax] with xmin < xmax, ymin < ymax, got {d}")),
-        }
-    }
-    if let Some(b) = obj.get("border") {
-        p.reflect = match b.as_str() {
-            Some("reflect") => true,
-            Some("freeze") => false,
-            _ => return err(format!("params.border must be \"freeze\" or \"reflect\", got {b}")),
-        };
-    }
-    Ok(p)
-}
-
-fn parse_control(v: Option<&Value>) -> Result<Control, String> {
-    let mut c = Control::default();
-    let obj = match v {
-        None => return Ok(c),
-        Some(Value::Object(o)) => o,
-        Some(other) => return err(format!("control must be an object, got {other}")),
-    };
-    only(obj, CONTROL_FIELDS, "control.")?;
-    for (name, value) in obj {
-        let x = match number(value) {
-            Some(x) => x,
-            None => return err(format!("control.{name} must be a finite number, got {value}")),
-        };
-        match name.as_str() {
-            "wx" => c.wx = x,
-            "wy" => c.wy = x,
-            "r" => c.r = x,
-            "s" => c.s = x,
-            "alpha" => c.alpha = x,
-            "beta" => c.beta = x,
-            "mu" => c.mu = x,
-            "push_x" => c.push_x = x,
-            "push_y" => c.push_y = x,
-            _ => {}
-        }
-    }
-    Ok(c)
-}
 
 impl AgentSpec {
     pub fn from_json(text: &str) -> Result<AgentSpec, String> {
