@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from agent.protocol.errors import UserError
+from fluidswarm.bench_record import BenchRecord, FailedRun, Formation, LockstepRun, Machine
 
 FULL_NS = (25, 50, 100, 200, 300, 1000)
 FIT_MAX_N = 300  # the step-time exponent is fitted over N <= 300 (issue 14); N = 1000 is recorded beside it
@@ -36,20 +37,23 @@ def register(sub) -> None:
     p.add_argument("--ns", help="comma-separated agent counts (default: 25,50,100,200,300; quick: 9,16,25)")
     p.add_argument("--steps", type=int, help="lockstep steps per run (default 300; quick 30)")
     p.add_argument("--gesture-agents", type=int, help="agents per gesture imitation (default 300; quick 20)")
+    p.add_argument("--json", action="store_true",
+                   help="print the bench's record (fluidswarm/bench_record.py BenchRecord, the object of results.json) "
+                        "as one JSON object instead of key=value lines")
     p.set_defaults(func=run)
 
 
-def machine() -> dict:
+def machine() -> Machine:
     mem = 0
     try:
         with open("/proc/meminfo") as f:
             mem = int(f.readline().split()[1]) // 1024
     except OSError:
         pass
-    return {"cores": os.cpu_count(), "memory_mb": mem, "python": platform.python_version(), "platform": platform.platform()}
+    return Machine(cores=os.cpu_count() or 1, memory_mb=mem, python=platform.python_version(), platform=platform.platform())
 
 
-def lockstep(n: int, steps: int) -> dict:
+def lockstep(n: int, steps: int) -> LockstepRun:
     import resource
 
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
@@ -80,27 +84,28 @@ def lockstep(n: int, steps: int) -> dict:
     t = time.perf_counter()
     VectorisedDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     vec_sps = steps / (time.perf_counter() - t)
-    return {
-        "n": n, "steps": steps, "agents_finished": len(done),
-        "steps_per_second": round(sps, 3),
-        "wall_seconds": round(steps / sps, 3) if sps else None,
-        "startup_seconds": round(res.startup_seconds, 3),
-        "msgs_per_agent_step": round(res.msgs_per_agent_step, 3),
-        "neighbours_per_agent": round(res.neighbours_per_agent, 3),
-        "cpu_seconds": round((after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), 2),
-        "cpu_ms_per_agent_step": round(1000 * float(np.mean(stepping)), 3) if stepping else None,
-        "cpu_us_per_agent_step": round(1e6 * float(np.mean(stepping)), 1) if stepping else None,
-        "rss_mb_per_agent": round(float(np.mean(rss)), 1) if rss else None,
-        "rss_mb_total": round(float(np.sum(rss)), 1),
-        "centralised_steps_per_second": round(pp_sps, 2),
-        "vectorised_steps_per_second": round(vec_sps, 2),
-        "decentralisation_ratio": round(pp_sps / sps, 3) if sps else None,
-        "decentralisation_ratio_vectorised": round(vec_sps / sps, 3) if sps else None,
-    }
+    return LockstepRun(
+        n=n, steps=steps, agents_finished=len(done),
+        steps_per_second=round(sps, 3),
+        wall_seconds=round(steps / sps, 3) if sps else None,
+        startup_seconds=round(res.startup_seconds, 3),
+        msgs_per_agent_step=round(res.msgs_per_agent_step, 3),
+        neighbours_per_agent=round(res.neighbours_per_agent, 3),
+        cpu_seconds=round((after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), 2),
+        cpu_ms_per_agent_step=round(1000 * float(np.mean(stepping)), 3) if stepping else None,
+        cpu_us_per_agent_step=round(1e6 * float(np.mean(stepping)), 1) if stepping else None,
+        rss_mb_per_agent=round(float(np.mean(rss)), 1) if rss else None,
+        rss_mb_total=round(float(np.sum(rss)), 1),
+        centralised_steps_per_second=round(pp_sps, 2),
+        vectorised_steps_per_second=round(vec_sps, 2),
+        decentralisation_ratio=round(pp_sps / sps, 3) if sps else None,
+        decentralisation_ratio_vectorised=round(vec_sps / sps, 3) if sps else None,
+    )
 
 
-def fit_exponent(runs: list[dict]) -> float | None:
-    pts = [(r["n"], 1.0 / r["steps_per_second"]) for r in runs if r.get("steps_per_second") and r["n"] <= FIT_MAX_N]
+def fit_exponent(runs: list[LockstepRun | FailedRun]) -> float | None:
+    pts = [(r.n, 1.0 / r.steps_per_second) for r in runs
+           if isinstance(r, LockstepRun) and r.steps_per_second and r.n <= FIT_MAX_N]
     if len(pts) < 2:
         return None
     x = np.log([p[0] for p in pts])
@@ -115,7 +120,7 @@ def gesture_image(cls: str) -> Path | None:
     return cands[0] if cands else None
 
 
-def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict]:
+def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict[str, Formation | None]]:
     """Wall time of `fluidswarm imitate` per gesture (start-up included), the fidelity it reached, and when
     its formation settled ({"seconds": simulated, "settled": false when the step cap ended it})."""
     out: dict = {}
@@ -136,7 +141,7 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict]
         out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
         record = json.loads(r.stdout) if r.returncode == 0 else None
         fid[gesture] = record["fidelity"]["iou"] if record else None
-        formed[gesture] = ({"seconds": record["formation_seconds"], "settled": record["formation_settled"]}
+        formed[gesture] = (Formation(seconds=record["formation_seconds"], settled=record["formation_settled"])
                            if record else None)
     return out, fid, formed
 
@@ -185,27 +190,27 @@ def perception_timings() -> dict:
     return out
 
 
-def write_outputs(results: dict, out: Path) -> None:
+def write_outputs(record: BenchRecord, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
-    lines = [f"Measured {results['date']} on {results['machine']['cores']} cores, "
-             f"{results['machine']['memory_mb'] // 1024} GiB ({'quick' if results['quick'] else 'full'} run).", "",
+    (out / "results.json").write_text(record.to_json(indent=2) + "\n")
+    lines = [f"Measured {record.date} on {record.machine.cores} cores, "
+             f"{record.machine.memory_mb // 1024} GiB ({'quick' if record.quick else 'full'} run).", "",
              "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in results["runs"]:
-        if "error" in r:
-            lines.append(f"| {r['n']} | failed: {r['error']} |" + " |" * 11)
+    for r in record.runs:
+        if isinstance(r, FailedRun):
+            lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 11)
             continue
-        lines.append(f"| {r['n']} | {r['steps_per_second']} | {r['wall_seconds']} | {r['startup_seconds']} | {r['msgs_per_agent_step']} | "
-                     f"{r['neighbours_per_agent']} | {r['cpu_seconds']} | {r.get('cpu_ms_per_agent_step')} | {r['rss_mb_per_agent']} | {r['rss_mb_total']} | "
-                     f"{r['centralised_steps_per_second']} | {r['vectorised_steps_per_second']} | {r['decentralisation_ratio']} |")
-    lines += ["", f"Step time ~ N^{results['step_time_exponent']} (log-log fit).", "",
-              "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in results["gesture_imitation_seconds"].items()),
-              f"(with {results['gesture_agents']} agent processes; thesis Table 6.1: 126-219 s per gesture)", "",
-              "Fidelity (iou) of those runs: " + ", ".join(f"{k} {v}" for k, v in results.get("gesture_imitation_fidelity_iou", {}).items()), "",
-              f"Eigen-image training: {results['eigen_training_seconds']} s; inference {results.get('eigen_inference_ms')} ms/image.", "",
-              f"Region controller: {results.get('region_controller_ms_per_video_frame')} ms per video frame (Weizmann clip, "
-              f"person regions + ellipses + command), {results.get('region_controller_ms_per_hand_photo')} ms per hand photograph."]
+        lines.append(f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
+                     f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | {r.rss_mb_total} | "
+                     f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |")
+    lines += ["", f"Step time ~ N^{record.step_time_exponent} (log-log fit).", "",
+              "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_seconds.items()),
+              f"(with {record.gesture_agents} agent processes; thesis Table 6.1: 126-219 s per gesture)", "",
+              "Fidelity (iou) of those runs: " + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_fidelity_iou.items()), "",
+              f"Eigen-image training: {record.eigen_training_seconds} s; inference {record.eigen_inference_ms} ms/image.", "",
+              f"Region controller: {record.region_controller_ms_per_video_frame} ms per video frame (Weizmann clip, "
+              f"person regions + ellipses + command), {record.region_controller_ms_per_hand_photo} ms per hand photograph."]
     (out / "results.md").write_text("\n".join(lines) + "\n")
     import matplotlib
 
@@ -213,11 +218,11 @@ def write_outputs(results: dict, out: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    ok = [r for r in results["runs"] if "error" not in r]
-    ns = [r["n"] for r in ok]
-    ax.loglog(ns, [r["steps_per_second"] for r in ok], "o-", label="agent processes (Zenoh)")
-    ax.loglog(ns, [r["centralised_steps_per_second"] for r in ok], "s--", label="per-particle driver")
-    ax.loglog(ns, [r["vectorised_steps_per_second"] for r in ok], "^:", label="vectorised driver")
+    ok = [r for r in record.runs if isinstance(r, LockstepRun)]
+    ns = [r.n for r in ok]
+    ax.loglog(ns, [r.steps_per_second for r in ok], "o-", label="agent processes (Zenoh)")
+    ax.loglog(ns, [r.centralised_steps_per_second for r in ok], "s--", label="per-particle driver")
+    ax.loglog(ns, [r.vectorised_steps_per_second for r in ok], "^:", label="vectorised driver")
     ax.set_xlabel("particles N")
     ax.set_ylabel("steps per second")
     ax.legend()
@@ -225,6 +230,16 @@ def write_outputs(results: dict, out: Path) -> None:
     fig.tight_layout()
     fig.savefig(out / "results.png")
     plt.close(fig)
+
+
+def print_lines(record: BenchRecord, results: Path) -> None:
+    """The key=value summary `bench` prints without --json (the per-N lines are printed as each run ends)."""
+    print(f"step_time_exponent={record.step_time_exponent}")
+    for g, v in record.gesture_imitation_seconds.items():
+        print(f"gesture_imitation_seconds[{g}]={v}")
+    print(f"eigen_training_seconds={record.eigen_training_seconds}")
+    print(f"region_controller_ms_per_video_frame={record.region_controller_ms_per_video_frame}")
+    print(f"results={results}")
 
 
 def run(args) -> int:
@@ -241,39 +256,39 @@ def run(args) -> int:
     if steps < 2:
         raise UserError(f"--steps: must be >= 2, got {steps}")
     gesture_agents = args.gesture_agents or (20 if args.quick else 300)
-    runs = []
+    lines = sys.stderr if args.json else sys.stdout  # with --json, stdout holds the record alone
+    runs: list[LockstepRun | FailedRun] = []
     for n in ns:
         print(f"lockstep N={n} ...", file=sys.stderr, flush=True)
         try:
             r = lockstep(n, steps)
         except (TimeoutError, RuntimeError) as exc:  # recorded, not hidden: the run did not come up or finish
-            print(f"n={n} failed: {exc}", flush=True)
-            runs.append({"n": n, "steps": steps, "error": str(exc)})
+            print(f"n={n} failed: {exc}", file=lines, flush=True)
+            runs.append(FailedRun(n=n, steps=steps, error=str(exc)))
             continue
-        print(f"n={n} steps_per_second={r['steps_per_second']} msgs_per_agent_step={r['msgs_per_agent_step']} "
-              f"rss_mb_per_agent={r['rss_mb_per_agent']} decentralisation_ratio={r['decentralisation_ratio']}", flush=True)
+        print(f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
+              f"rss_mb_per_agent={r.rss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
+              file=lines, flush=True)
         runs.append(r)
     print("gesture imitation ...", file=sys.stderr, flush=True)
     gestures, gesture_fidelity, gesture_formation = imitation_seconds(gesture_agents, 60 if args.quick else None)
     perception = perception_timings()
     perception.update(region_controller_timing())
-    results = {
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "quick": bool(args.quick),
-        "machine": machine(),
-        "runs": runs,
-        "step_time_exponent": fit_exponent(runs),
-        "gesture_agents": gesture_agents,
-        "gesture_imitation_seconds": gestures,
-        "gesture_imitation_fidelity_iou": gesture_fidelity,
-        "gesture_imitation_formation": gesture_formation,
+    record = BenchRecord(
+        date=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        quick=bool(args.quick),
+        machine=machine(),
+        runs=tuple(runs),
+        step_time_exponent=fit_exponent(runs),
+        gesture_agents=gesture_agents,
+        gesture_imitation_seconds=gestures,
+        gesture_imitation_fidelity_iou=gesture_fidelity,
+        gesture_imitation_formation=gesture_formation,
         **perception,
-    }
-    write_outputs(results, Path(args.out))
-    print(f"step_time_exponent={results['step_time_exponent']}")
-    for g, v in gestures.items():
-        print(f"gesture_imitation_seconds[{g}]={v}")
-    print(f"eigen_training_seconds={results['eigen_training_seconds']}")
-    print(f"region_controller_ms_per_video_frame={results.get('region_controller_ms_per_video_frame')}")
-    print(f"results={Path(args.out) / 'results.json'}")
+    )
+    write_outputs(record, Path(args.out))
+    if args.json:
+        print(record.to_json(), flush=True)
+    else:
+        print_lines(record, Path(args.out) / "results.json")
     return 0

@@ -1,4 +1,5 @@
-"""`fluidswarm bench --quick` produces every field tools rely on (figures are checked by reading them)."""
+"""`fluidswarm bench --quick --json` produces every field tools rely on, as one typed record on stdout that is
+also results.json (figures are checked by reading them)."""
 
 from __future__ import annotations
 
@@ -8,29 +9,37 @@ import sys
 
 import pytest
 
+from fluidswarm.bench_record import BenchRecord, FailedRun, LockstepRun
+
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
 
 def test_bench_quick_writes_every_field(tmp_path):
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "bench", "--quick", "--ns", "4,9", "--steps", "15",
-                        "--gesture-agents", "8", "--out", str(tmp_path)], capture_output=True, text=True, timeout=900)
+                        "--gesture-agents", "8", "--out", str(tmp_path), "--json"],
+                       capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr[-2000:]
-    res = json.loads((tmp_path / "results.json").read_text())
-    for key in ("date", "machine", "runs", "step_time_exponent", "gesture_imitation_seconds", "eigen_training_seconds"):
-        assert key in res
-    assert res["machine"]["cores"] >= 1 and res["machine"]["memory_mb"] > 0
-    assert [run["n"] for run in res["runs"]] == [4, 9]
-    for run in res["runs"]:
+    printed = BenchRecord.from_dict(json.loads(r.stdout))  # the whole of stdout: one JSON object
+    res = BenchRecord.load(tmp_path / "results.json")
+    assert printed == res
+    assert "n=4 steps_per_second=" in r.stderr  # the per-N lines still show, on stderr
+    assert res.machine.cores >= 1 and res.machine.memory_mb > 0 and res.quick
+    assert [run.n for run in res.runs] == [4, 9]
+    assert not any(isinstance(run, FailedRun) for run in res.runs), res.runs
+    for run in res.runs:
+        assert isinstance(run, LockstepRun) and run.steps == 15 and run.agents_finished == run.n
         for key in ("steps_per_second", "msgs_per_agent_step", "rss_mb_per_agent", "centralised_steps_per_second",
                     "decentralisation_ratio"):
-            assert isinstance(run[key], (int, float)) and run[key] > 0, (key, run[key])
-    assert set(res["gesture_imitation_seconds"]) == {"scissor", "cylindrical", "pinching"}
-    assert all(isinstance(v, float) and v > 0 for v in res["gesture_imitation_seconds"].values())
-    assert isinstance(res["eigen_training_seconds"], float) and res["eigen_training_seconds"] > 0
+            assert getattr(run, key) is not None and getattr(run, key) > 0, (key, run)
+    assert res.step_time_exponent is not None
+    assert res.gesture_agents == 8
+    assert set(res.gesture_imitation_seconds) == {"scissor", "cylindrical", "pinching"}
+    assert all(v is not None and v > 0 for v in res.gesture_imitation_seconds.values())
+    assert res.eigen_training_seconds is not None and res.eigen_training_seconds > 0
     assert (tmp_path / "results.md").stat().st_size > 0 and (tmp_path / "results.png").stat().st_size > 0
-    assert all(isinstance(v, float) and 0 <= v <= 1 for v in res["gesture_imitation_fidelity_iou"].values())
-    assert all(v["seconds"] > 0 and isinstance(v["settled"], bool) for v in res["gesture_imitation_formation"].values())
-    for key in ("region_controller_ms_per_video_frame", "region_controller_ms_per_hand_photo"):
-        assert isinstance(res[key], float) and res[key] > 0, key
+    assert all(v is not None and 0 <= v <= 1 for v in res.gesture_imitation_fidelity_iou.values())
+    assert all(v is not None and v.seconds > 0 for v in res.gesture_imitation_formation.values())
+    for v in (res.region_controller_ms_per_video_frame, res.region_controller_ms_per_hand_photo):
+        assert v is not None and v > 0
     # agents report their own peak RSS (VmHWM): the compiled agent, a few MB (issue 14: <= 15), not the parent's
-    assert all(1 < run["rss_mb_per_agent"] <= 15 for run in res["runs"])
+    assert all(1 < run.rss_mb_per_agent <= 15 for run in res.runs)

@@ -4,11 +4,11 @@ swarm, plus the step-size relation timed on the reference driver."""
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 from agent.sph.reference import VectorisedDriver
+from fluidswarm.bench_record import BenchRecord
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 from coordinator.control.imitation_setup import prepare_input
 from coordinator.control.route import followers_for
@@ -26,16 +26,16 @@ def measure(ctx: Context) -> list[Group]:
         "coordinator included, ends when the formation has settled). The step-size relation is timed on the "
         "reference driver under the reading 'step size = time step'.")
     try:
-        bench = json.loads(RESULTS.read_text())
-        secs, iou, n = bench["gesture_imitation_seconds"], bench["gesture_imitation_fidelity_iou"], bench["gesture_agents"]
-        date = bench["date"]
-    except (OSError, ValueError, KeyError) as exc:
+        bench = BenchRecord.load(RESULTS)
+    except (OSError, ValueError) as exc:  # ValueError: not JSON, or not a bench record (BenchRecordError)
         g.claims.append(Claim("§6.3, Table 6.1", "elapsed time per gesture", "126-219 s",
                               f"not read: {RESULTS} ({exc})", Verdict.NOT_COMPARABLE,
                               "run `fluidswarm bench` to measure the 300-agent imitations", "latest bench"))
         return [g]
+    secs, iou, n, date = (bench.gesture_imitation_seconds, bench.gesture_imitation_fidelity_iou, bench.gesture_agents,
+                          bench.date)
     for gesture, (t7, t10) in THESIS.items():
-        if gesture not in secs:
+        if secs.get(gesture) is None or iou.get(gesture) is None:  # not measured, or that imitation failed
             continue
         g.claims.append(Claim(
             "§6.3, Table 6.1", f"elapsed time of the {gesture} imitation",
