@@ -1,0 +1,80 @@
+"""What several vector files share: the fixed secrets, the signed envelope and the standard command with its
+variants, and the list forms the Rust side reads."""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+from pathlib import Path
+
+from agent.protocol.command import GestureCommand, ParticleClass, Waypoint, _canonical
+from agent.sph.particle import Control
+
+HERE = Path(__file__).resolve().parent.parent
+
+# The digit-2 hand photo of the shared sign-language-digits set (IMG_1140.JPG), committed with the scenarios:
+# the generator (and tests/test_vectors.py, which reruns it) needs no ../shared.
+PHOTO = HERE.parent.parent / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
+
+SECRET = bytes(range(32))
+OTHER_SECRET = bytes(range(1, 33))
+HEAD = b'{"v":1,"body":'
+
+
+def sign_raw(body: bytes, secret: bytes = SECRET) -> bytes:
+    """The standard envelope around exactly these body bytes (the HMAC over them)."""
+    return HEAD + body + b',"sig":"' + hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b'"}'
+
+
+def sign(body: dict, secret: bytes = SECRET) -> bytes:
+    return sign_raw(_canonical(body), secret)
+
+
+def sig_of(body: dict, secret: bytes = SECRET) -> str:
+    return hmac.new(secret, _canonical(body), hashlib.sha256).hexdigest()
+
+
+def relaid(body: dict, v=1, sig: str | None = None, extra_env: dict | None = None, indent=1) -> bytes:
+    """An envelope laid out differently from `encode` (keys reversed, indented): not the fast path."""
+    env = {"sig": sig_of(body) if sig is None else sig, "body": dict(reversed(list(body.items()))), "v": v}
+    if extra_env:
+        env.update(extra_env)
+    # surrogatepass: a lone surrogate in a str goes out as its 3-byte encoding, which Python's json reads back
+    return json.dumps(env, indent=indent, ensure_ascii=False).encode("utf-8", "surrogatepass")
+
+
+STANDARD = GestureCommand(
+    seq=1, gesture="v_sign", n_agents=30,
+    classes=(ParticleClass("left", 1.0, (Waypoint(10.0, 12.5, 1.0, 3.0, 4.0, beta=5.0),
+                                         Waypoint(20.0, 25.0, 0.5, 2.0, 6.0, mu=0.25))),
+             ParticleClass("right", 2.0, (Waypoint(40.0, 12.5, 1.0, 3.0, 4.0),))),
+    beta=2.0, mu=0.0, extra={"controller": "region", "ellipses": [[1.5, 2.0, 0.3, -0.7]]})
+
+
+def body(**changes) -> dict:
+    """The standard command's body (a dict) with fields replaced."""
+    b = STANDARD.body()
+    b.update(changes)
+    return b
+
+
+def waypoint(**changes) -> dict:
+    w = {"x": 1.0, "y": 2.0, "r": 0.5, "s": 1.0, "alpha": 3.0}
+    w.update(changes)
+    return w
+
+
+def one_class(**changes) -> dict:
+    c = {"name": "c", "share": 1.0, "route": [waypoint()]}
+    c.update(changes)
+    return c
+
+
+def lossy(s: str) -> str:
+    """A str as UTF-8 can carry it (lone surrogates as U+FFFD), as the Rust decoder reports it."""
+    return "".join("\ufffd" if 0xD800 <= ord(c) < 0xE000 else c for c in s)
+
+
+def control_list(c: Control) -> list:
+    return [c.wx, c.wy, c.r, c.s, c.alpha, c.beta, c.mu, c.push_x, c.push_y]
