@@ -66,8 +66,8 @@ class Pacer:
         if peek is None:
             return
         agent_id, step = peek
-        if keys.state_sender(str(sample.key_expr)) not in (None, agent_id):
-            return  # under another agent's key: a forgery (docs/security.md)
+        if not keys.state_key_vouches(str(sample.key_expr), agent_id):
+            return  # under another agent's key or a wildcard key: a forgery (docs/security.md)
         now = time.monotonic()
         last = self.agent_steps.get(agent_id)
         if (last is None or step > last[0]) and step <= self.max_step + AHEAD:

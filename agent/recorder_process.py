@@ -43,7 +43,8 @@ class RecorderProcess:
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise RuntimeError(f"recorder exited at start-up (code {self.proc.returncode})")
-            if list(self.session.liveliness().get(key, timeout=1.0)):
+            # its own token's key: a token on a wildcard key (`fluidswarm/**`) answers this query too
+            if any(r.ok is not None and str(r.ok.key_expr) == key for r in self.session.liveliness().get(key, timeout=1.0)):
                 return self.proc
             time.sleep(0.1)
         raise TimeoutError(f"recorder not ready after {timeout:.0f} s")

@@ -133,7 +133,13 @@ def main(argv: list[str] | None = None) -> int:
         clock = None
         if args.frame_steps:
             clock = SwarmClock()
-            session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
+
+            def on_clock(sample) -> None:
+                # the launcher's exact key only: a put on a wildcard key (`fluidswarm/**`) reaches it too
+                if keys.ctl_what(args.run, str(sample.key_expr)) == "clock":
+                    clock.on_sample(sample)
+
+            session.declare_subscriber(keys.ctl_key(args.run, "clock"), on_clock)
         ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
         payloads = [(first, c.encode(secret)) for first, c in commands]
         tick = 0

@@ -3,9 +3,12 @@
     .venv/bin/python scripts/security_side_by_side.py N[,N...] STEPS ROUNDS OUT.json [BASE_DIR BASE_AGENT_BINARY]
 
 Per N and round, alternating, one swarm each (`run_swarm(spread_block(N), STEPS)`, as scripts/probe_swarm.py):
-  acl   the default: fresh credentials, per-process access control on the router (FLUIDSWARM_ACCESS=acl)
-  auth  credentials only (FLUIDSWARM_ACCESS=auth)
-  open  no credentials (FLUIDSWARM_ACCESS=none), same agent binary
+  acl       fresh credentials, per-process access control on the router, ids in the state keys
+            (FLUIDSWARM_ACCESS=acl)
+  acl-keys  the same run without the router's access control: credentials and ids in the state keys, no rules
+            (measures the rules' own cost; a measurement only, no FLUIDSWARM_ACCESS level)
+  auth      credentials only, one exact state key per cell (FLUIDSWARM_ACCESS=auth)
+  open      no credentials (FLUIDSWARM_ACCESS=none), same agent binary
   base  the code before issue 18 (an open router, one exact state key per cell): its launcher from BASE_DIR
         (e.g. `git archive 353a79b | tar -x -C BASE_DIR`) and its agent build BASE_AGENT_BINARY
 Each swarm runs in its own process (its environment picks the setting). Run it under the CPU lock.
@@ -24,7 +27,18 @@ def one(n: int, steps: int) -> dict:
     import numpy as np
 
     from agent.launcher import Launcher, run_swarm
+    from agent.protocol.access import LaunchAccess
     from agent.sph.setups import spread_block
+
+    if os.environ.get("FLUIDSWARM_SBS_NO_RULES"):  # acl-keys: the acl level's key layout, no rules on the router
+        embedded = LaunchAccess.embedded
+
+        def without_rules():
+            access = embedded()
+            access.acl = None  # state_key_ids stays as the acl level set it
+            return access
+
+        LaunchAccess.embedded = staticmethod(without_rules)
 
     with Launcher() as la:
         res = run_swarm(spread_block(n), steps, launcher=la)
@@ -48,8 +62,12 @@ def main() -> None:
     ns = [int(v) for v in sys.argv[1].split(",")]
     steps, rounds, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     base_dir, base = (sys.argv[5], sys.argv[6]) if len(sys.argv) > 6 else ("", "")
-    settings = {"acl": {"FLUIDSWARM_ACCESS": "acl"}, "auth": {"FLUIDSWARM_ACCESS": "auth"},
-                "open": {"FLUIDSWARM_ACCESS": "none"}}
+    settings = {"acl": {"FLUIDSWARM_ACCESS": "acl"},
+                "acl-keys": {"FLUIDSWARM_ACCESS": "acl", "FLUIDSWARM_SBS_NO_RULES": "1"},
+                "auth": {"FLUIDSWARM_ACCESS": "auth"}, "open": {"FLUIDSWARM_ACCESS": "none"}}
+    only = os.environ.get("FLUIDSWARM_SBS_SETTINGS")  # e.g. acl,acl-keys,auth
+    if only:
+        settings = {k: v for k, v in settings.items() if k in only.split(",")}
     if base:
         settings["base"] = {"FLUIDSWARM_ACCESS": "none", "FLUIDSWARM_AGENT_BIN": base, "PYTHONPATH": base_dir}
     rows = []

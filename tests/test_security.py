@@ -4,7 +4,9 @@
     cannot open a session, so `verify` stays exact while it tries; with an open router the same attack
     (republishing neighbours' states shifted by 0.3 m) breaks exactness, so the test can fail.
 (b) a rogue *agent* holding valid credentials (agent 16's) forges states under the ids of the real agents
-    and ctl/command messages: the router refuses all of them, the swarm's result is the reference's.
+    and ctl/command messages: the router refuses all of them, the swarm's result is the reference's. The
+    same forgeries on wildcard keys (`fluidswarm/<run>/**`, which the router's default-allow deny rules
+    cannot name) reach the receivers, which take none of them (exact keys only).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import subprocess
 import sys
 import struct
 import time
+from dataclasses import astuple
 
 import numpy as np
 import pytest
@@ -136,16 +139,19 @@ def test_an_outsider_without_credentials_cannot_connect_and_verify_stays_exact()
 
 
 # A rogue agent process with agent 16's valid credentials (from its environment, as a real agent gets them).
-# It forges states under the real agents' ids (shifted copies of theirs, on their keys), the same forgeries
-# under its own key, and ctl/stop, ctl/end, ctl/clock, ctl/gone and command messages.
+# It forges states under the real agents' ids (shifted copies of theirs, on their keys and on their cells'
+# keys without id), the same forgeries under its own key and on wildcard keys, and ctl/stop, ctl/end,
+# ctl/clock, ctl/gone and command messages on their keys and on wildcard keys.
 ROGUE_AGENT = r'''
 import json, os, signal, struct, sys, threading, time, zenoh
+from agent.protocol import keys
 from agent.protocol.session import client_config
 run = sys.argv[2]
 stop = threading.Event()
 signal.signal(signal.SIGTERM, lambda *a: stop.set())
 session = zenoh.open(client_config([sys.argv[1]]))  # FLUIDSWARM_ZENOH_USER/PASSWORD: agent-16's
-did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0}
+did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0}
+WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*/*/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
 def forge(sample):
     data = bytearray(sample.payload.to_bytes())
     if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
@@ -155,9 +161,12 @@ def forge(sample):
     struct.pack_into("<H", data, 12, 0x7777)
     key = str(sample.key_expr)
     session.put(key, bytes(data))  # under the real agent's id
-    did["forged_other_ids"] += 1
-    session.put(key.rsplit("/", 1)[0] + "/16", bytes(data))  # the real agent's record under our own key
+    session.put(key.rsplit("/", 1)[0], bytes(data))  # on its cell's key without id
+    did["forged_other_ids"] += 2
+    session.put(key.rsplit("/", 1)[0] + "/" + keys.id_chunk(16), bytes(data))  # the real agent's record under our own key
     did["forged_own_key"] += 1
+    session.put(WILD[did["wildcard"] % len(WILD)], bytes(data))
+    did["wildcard"] += 1
 sub = session.declare_subscriber(f"fluidswarm/{run}/state/**", forge)
 print("ready", flush=True)
 while not stop.wait(0.01):
@@ -165,6 +174,9 @@ while not stop.wait(0.01):
                           ("gone", struct.pack("<I", 99))):
         session.put(f"fluidswarm/{run}/ctl/{what}", payload)
         did["ctl"] += 1
+        for wild in (f"fluidswarm/{run}/ctl/*", f"fluidswarm/{run}/**"):
+            session.put(wild, payload)
+            did["wildcard"] += 1
     session.put(f"fluidswarm/{run}/command", b'{"v":1}')
     did["command"] += 1
 print(json.dumps(did), flush=True)
@@ -183,12 +195,14 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     monkeypatch.setenv("FLUIDSWARM_ACCESS", "acl")  # per-process rights (states then carry the id in the key)
     setup = spread_block(16)
     steps = 150
-    seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0}
+    seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0}
 
     def observe(sample):  # on the router's own session: what the router let through
         key, data = str(sample.key_expr), sample.payload.to_bytes()
-        if "/state/" in key and len(data) == 88 and int.from_bytes(data[12:14], "little") == MARK:
-            seen["forged_own_key" if key.endswith("/16") else "forged_other_ids"] += 1
+        if "*" in key:
+            seen["wildcard"] += 1
+        elif "/state/" in key and len(data) == 88 and int.from_bytes(data[12:14], "little") == MARK:
+            seen["forged_own_key" if keys.id_from_key(key) == 16 else "forged_other_ids"] += 1
         elif "/ctl/" in key and (key.rsplit("/", 1)[1], data) in ROGUE_CTL:  # not the launcher's own
             seen["ctl"] += 1
         elif key.endswith("/command"):
@@ -217,12 +231,13 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     print(f"rogue sent {sent}; the router let through {seen_during_run}; agents rejected {rejected}")
     ref = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     got = np.array([res.finals[i].state for i in setup.ids])
-    assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10
+    assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10 and sent["wildcard"] > 100
     # refused by the router: none reached even its own session
     assert seen_during_run["forged_other_ids"] == 0 and seen_during_run["ctl"] == 0 and seen_during_run["command"] == 0
-    # under its own id the router lets it speak (it may lie about itself), and the agents see the record
-    # names someone else
-    assert seen_during_run["forged_own_key"] > 0 and rejected.get("key", 0) > 0
+    # under its own id the router lets it speak (it may lie about itself), and so on wildcard keys (its deny
+    # rules name key patterns, not every wildcard): the agents see the record names someone else, or the key
+    # no one, and drop it; they ignore ctl on a wildcard key (they would stop, end or jump the clock)
+    assert seen_during_run["forged_own_key"] > 0 and seen_during_run["wildcard"] > 0 and rejected.get("key", 0) > 0
     assert all(r.status == "done" for r in res.finals.values()) and len(res.finals) == 16
     assert np.abs(got[:, [X, Y]] - ref[:, [X, Y]]).max() <= 1e-9
 
@@ -265,8 +280,81 @@ def test_users_file_errors_are_one_line_naming_the_line(tmp_path):
     write_users_file(str(out), key.users(4))
     assert oct(out.stat().st_mode & 0o777) == "0o600"
     assert [c.user for c in read_users_file(str(out))][-1] == "agent-3"
-    # per-agent rules: agent i may put only its own keys
-    acl = acl_config(["agent-3", "recorder"])
-    rule = next(r for r in acl["rules"] if r["id"] == "agent-3")
-    assert all(k.endswith("/3") for k in rule["key_exprs"]) and acl["default_permission"] == "deny"
     assert AGENT_CAPACITY >= 1000
+
+
+def test_an_id_chunk_holds_none_of_the_letters_another_ids_rules_deny():
+    # the router forbids agent i the keys whose last chunk holds a letter of a bit i does not have: every
+    # other id's chunk holds one, i's own none; and only an exact chunk decodes to an id
+    chunks = [keys.id_chunk(i) for i in range(keys.MAX_AGENTS)]
+    assert all(keys.id_of_chunk(c) == i for i, c in enumerate(chunks)) and len(set(chunks)) == keys.MAX_AGENTS
+    for i in (0, 5, 1279, keys.MAX_AGENTS - 1):
+        denied = {keys.bit_letter(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS)}
+        assert not denied & set(chunks[i])
+        assert all(denied & set(c) for j, c in enumerate(chunks) if j != i)
+    for bad in ("*", "**", "$*", chunks[3][:-1], chunks[3] + "a", chunks[3][:-1] + "a", "3", ""):
+        assert keys.id_of_chunk(bad) is None
+    with pytest.raises(ValueError, match="ids 0..8191 only"):
+        keys.id_chunk(keys.MAX_AGENTS)
+
+
+# What each role may do on a router with the run's access control (agent/protocol/access.py), tried with real
+# sessions: user -> [(put or token, key, passes?)]
+RUN = "R"
+RIGHTS = {
+    "agent-5": [("put", keys.state_key(RUN, 1, -2, 5), True), ("put", keys.event_key(RUN, 5), True),
+                ("put", keys.final_key(RUN, 5), True), ("token", keys.alive_key(RUN, 5), True),
+                ("put", keys.state_key(RUN, 1, -2, 4), False), ("put", keys.state_key(RUN, 1, -2, 7), False),
+                ("put", keys.state_key(RUN, 1, -2, 5 + 4096), False), ("put", keys.state_key(RUN, 1, -2), False),
+                ("put", keys.event_key(RUN, 6), False), ("put", keys.final_key(RUN, 13), False),
+                ("put", f"fluidswarm/**/{keys.id_chunk(4)}", False), ("put", keys.ctl_key(RUN, "stop"), False),
+                ("put", keys.command_key(RUN), False), ("put", keys.alive_key(RUN, 5), False),
+                ("token", keys.alive_key(RUN, 4), False), ("token", f"fluidswarm/{RUN}/recorder", False),
+                ("delete", keys.event_key(RUN, 5), False)],
+    "coordinator": [("put", keys.command_key(RUN), True), ("token", f"fluidswarm/{RUN}/coordinator", True),
+                    ("put", keys.ctl_key(RUN, "stop"), False), ("put", keys.state_key(RUN, 1, 2, 5), False),
+                    ("token", f"fluidswarm/{RUN}/recorder", False)],
+    "recorder": [("token", f"fluidswarm/{RUN}/recorder", True), ("put", keys.command_key(RUN), False),
+                 ("put", keys.event_key(RUN, 5), False), ("token", keys.alive_key(RUN, 4), False)],
+    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.state_key(RUN, 1, 2, 5), False),
+                 ("put", keys.command_key(RUN), False), ("token", keys.alive_key(RUN, 4), False)],
+}
+
+
+@pytest.mark.swarm
+def test_the_routers_rules_let_each_role_do_its_part_and_nothing_else(tmp_path):
+    from agent.protocol.access import UsersFile
+    from agent.protocol.session import router_config
+    from agent.router_host import free_port
+
+    key = RunKey()
+    creds = key.users(8)
+    users = UsersFile(creds)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    router = zenoh.open(router_config([endpoint], dictionary_file=users.path, acl=acl_config([c.user for c in creds])))
+    users.remove()
+    got, tokens, held = [], [], []
+    router.declare_subscriber("fluidswarm/**", lambda s: got.append(str(s.key_expr)))
+    router.liveliness().declare_subscriber("fluidswarm/**", lambda s: tokens.append(str(s.key_expr)))
+    sessions = {u: zenoh.open(client_config([endpoint], *astuple(key.credential(u)))) for u in RIGHTS}
+    wrong = []
+    try:
+        for user, tries in RIGHTS.items():
+            for what, k, passes in tries:
+                got.clear(), tokens.clear()
+                if what == "put":
+                    sessions[user].put(k, b"x")
+                elif what == "delete":
+                    sessions[user].delete(k)
+                else:
+                    held.append(sessions[user].liveliness().declare_token(k))
+                deadline = time.monotonic() + (1.0 if passes else 0.2)
+                while not (got or tokens) and time.monotonic() < deadline:
+                    time.sleep(0.01)
+                if bool(got or tokens) != passes:
+                    wrong.append((user, what, k, passes))
+    finally:
+        for s in sessions.values():
+            s.close()
+        router.close()
+    assert not wrong, wrong

@@ -1,8 +1,8 @@
 """Who may open a session on a run's router, and what each process may do there (docs/security.md).
 
 Every process of a run authenticates to its router with its own user name and password (Zenoh usrpwd), and
-the router's access control (Zenoh ACL, default deny) lets each user do only its role's part of the
-protocol (docs/protocol.md):
+the router's access control (Zenoh ACL: default allow, ingress deny rules for everything a role must not do;
+see acl_config) lets each user do only its role's part of the protocol (docs/protocol.md):
 
     agent-<id>    put its own state (`state/<cx>/<cy>/<id>`), event and final keys, its own alive token, query
                   its own final key; subscribe to states, ctl and the command
@@ -156,19 +156,37 @@ def write_users_file(path: str, creds: list[Credential]) -> None:
 
 
 # ---- the router's access control -------------------------------------------------------------------
+# Default allow, deny rules on the ingress flow only. With `default_permission: deny` zenoh 1.10 also runs its
+# egress filter, which rebuilds the full key of every message it forwards (N x ~26 per step): 19-24 % of the
+# steps/s (docs/benchmarks/security.md). Deny rules say everything a role must not do instead. Deny wins over
+# allow and a rule matches a message when the rule's key expression *includes* the message's, so:
+#   - "every agent's keys but mine" is one pattern per id bit (keys.py: id_chunk): `**/$*<letter>$*` with the
+#     letter of the bit agent i does not have; each agent id chunk but i's own holds at least one of them;
+#   - a message key with wildcards (`fluidswarm/**`, `.../state/*/*/*`) is included by no pattern narrower than
+#     `**`, so it passes the router; every receiver checks keys exactly (keys.state_key_vouches, ctl_what,
+#     id_from_key), and such a key names no agent id and no ctl message.
 _ANY_RUN = f"{keys.PREFIX}/*"
-_INGRESS = ["ingress"]
+_EVERYTHING = ["**"]
+_ADMIN = ["@/**"]  # the router's admin space
+_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator")
 
 
-def _rule(rule_id: str, messages: list[str], key_exprs: list[str], flows=_INGRESS) -> dict:
-    return {"id": rule_id, "messages": messages, "flows": list(flows), "permission": "allow", "key_exprs": key_exprs}
+def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
+    return {"id": rule_id, "messages": messages, "flows": ["ingress"], "permission": "deny", "key_exprs": key_exprs}
 
 
-def _agent_rule(agent_id: int) -> dict:
-    i = int(agent_id)
-    own = [f"{_ANY_RUN}/state/*/*/{i}", f"{_ANY_RUN}/event/{i}", f"{_ANY_RUN}/final/{i}", f"{_ANY_RUN}/alive/{i}"]
-    # put its state/event/final, its alive token, and the flush query on its own final key
-    return _rule(f"agent-{i}", ["put", "liveliness_token", "query"], own)
+def _kinds_but(*mine: str) -> list[str]:
+    """Key expressions of every kind of key of the protocol except `mine` (any run)."""
+    out = []
+    for kind in _KINDS:
+        if kind in mine:
+            continue
+        out.append(f"{_ANY_RUN}/{kind}" if kind in ("command", "recorder", "coordinator") else f"{_ANY_RUN}/{kind}/**")
+    return out
+
+
+def _bit_rule(k: int, bit: int) -> str:
+    return f"not-bit{k}-{bit}"
 
 
 def _agent_ids(users: list[str]) -> list[int]:
@@ -176,48 +194,57 @@ def _agent_ids(users: list[str]) -> list[int]:
 
 
 def acl_config(users: list[str]) -> dict:
-    """Zenoh's `access_control` section for these users (roles above; others get nothing: default deny).
+    """Zenoh's `access_control` section for these users (roles above). Default allow; ingress deny rules.
 
-    Ingress rules say what each may send and declare; one egress rule lets every user receive anything under
-    `fluidswarm/` (what reaches it is already limited by what it may subscribe to). Deny by default.
+    An agent may put its state, event and final keys, declare its alive token, query (the flush on its own
+    final key) and subscribe; it may not put or declare another agent's keys (the bit rules), ctl, the
+    command, cell state keys (those carry no id) or the recorder's or coordinator's tokens, and it may never
+    delete, reply, declare a queryable, query liveliness or subscribe to liveliness. The other roles likewise
+    (docs/security.md has the table); the `router` role (another host's router) may do everything.
     """
-    r = _ANY_RUN
-    everything = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
-                  "liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
+    never = ["delete", "reply", "declare_queryable"]
     rules = [
-        _rule("receive", everything, [f"{keys.PREFIX}/**"], ["egress"]),
-        _rule("agent-listens", ["declare_subscriber"], [f"{r}/state/**", f"{r}/ctl/*", f"{r}/command"]),
-        _rule("launcher", ["put"], [f"{r}/ctl/*"]),
-        _rule("launcher-listens", ["declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"],
-              [f"{r}/state/**", f"{r}/event/*", f"{r}/final/*", f"{r}/alive/*", f"{r}/recorder", f"{r}/coordinator"]),
-        _rule("coordinator", ["put", "liveliness_token"], [f"{r}/command", f"{r}/coordinator"]),
-        _rule("coordinator-listens", ["declare_subscriber"], [f"{r}/ctl/*"]),
-        _rule("recorder", ["liveliness_token"], [f"{r}/recorder"]),
-        _rule("recorder-listens", ["declare_subscriber", "declare_liveliness_subscriber"],
-              [f"{r}/state/**", f"{r}/event/*", f"{r}/final/*", f"{r}/command", f"{r}/alive/*"]),
-        _rule("router", everything, [f"{keys.PREFIX}/**"], ["ingress", "egress"]),
+        _deny("never", never, _EVERYTHING),
+        _deny("no-admin", ["put", "query", "liveliness_token"], _ADMIN),
+        # agents
+        _deny("agent-never", ["liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
+        _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*"]),
+        _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
+        # launcher (multi-host: a launcher that connects to a router)
+        _deny("launcher-put", ["put"], _kinds_but("ctl")),
+        _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
+        # coordinator
+        _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
+        _deny("coordinator-put", ["put"], _kinds_but("command")),
+        _deny("coordinator-token", ["liveliness_token"], _kinds_but("coordinator")),
+        # recorder
+        _deny("recorder-never", ["put", "query", "liveliness_query"], _EVERYTHING),
+        _deny("recorder-token", ["liveliness_token"], _kinds_but("recorder")),
     ]
-    role_rules = {"launcher": ["launcher", "launcher-listens"], "coordinator": ["coordinator", "coordinator-listens"],
-                  "recorder": ["recorder", "recorder-listens"], "router": ["router"]}
+    # "bit k is not b": agent ids whose bit k is 1-b may not use keys whose last chunk holds letter (k, b)
+    for k in range(keys.ID_BITS):
+        for bit in (0, 1):
+            rules.append(_deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"],
+                               [f"**/$*{keys.bit_letter(k, bit)}$*"]))
+    role_rules = {"launcher": ["never", "no-admin", "launcher-put", "launcher-token"],
+                  "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
+                  "recorder": ["never", "no-admin", "recorder-never", "recorder-token"]}
     subjects, policies = [], []
-    for role in ROLES:
-        if role not in users:
-            continue
-        subjects.append({"id": role, "usernames": [role]})
-        who = [role]
-        if role == "router":
-            # A router sees no user name on the link it opened to another router (only the accepting side
-            # authenticates the other), so routers are also known by their link: mutual TLS, i.e. a
-            # certificate of the swarm's CA (fluidswarm router --tls-*); agents and launchers use tcp.
-            subjects.append({"id": "router-over-tls", "link_protocols": ["tls"]})
-            who.append("router-over-tls")
-        policies.append({"id": role, "rules": role_rules[role] + ["receive"], "subjects": who})
+    for role in role_rules:
+        # `router` (another host's router) gets no rule: it may do everything (it checks its own clients
+        # itself), and so may the other end of a router-to-router link, where no user name is seen (only the
+        # accepting side authenticates): that link is mutual TLS with a certificate of the swarm's CA.
+        if role in users:
+            subjects.append({"id": role, "usernames": [role]})
+            policies.append({"id": role, "rules": role_rules[role], "subjects": [role]})
     for i in _agent_ids(users):
-        rules.append(_agent_rule(i))
+        if i >= keys.MAX_AGENTS:
+            raise ValueError(f"agent-{i}: ids 0..{keys.MAX_AGENTS - 1} only (keys.ID_BITS)")
         subjects.append({"id": f"agent-{i}", "usernames": [f"agent-{i}"]})
-        policies.append({"id": f"agent-{i}", "rules": [f"agent-{i}", "agent-listens", "receive"],
-                         "subjects": [f"agent-{i}"]})
-    return {"enabled": True, "default_permission": "deny", "rules": rules, "subjects": subjects,
+        bits = [_bit_rule(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS)]
+        policies.append({"id": f"agent-{i}", "rules": ["never", "no-admin", "agent-never", "agent-put",
+                                                          "agent-token"] + bits, "subjects": [f"agent-{i}"]})
+    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects,
             "policies": policies}
 
 
@@ -288,6 +315,9 @@ class LaunchAccess:
         return cred.env() if cred else {}
 
     def env_for_agent(self, agent_id: int) -> dict[str, str]:
+        if not 0 <= agent_id < keys.MAX_AGENTS:
+            raise ValueError(f"agent id {agent_id}: ids 0..{keys.MAX_AGENTS - 1} only (an agent's keys hold its id "
+                             f"in {keys.ID_BITS} bits, docs/protocol.md)")
         if self.capacity is not None and not 0 <= agent_id < self.capacity:
             raise ValueError(f"agent id {agent_id}: this run's router knows ids 0..{self.capacity - 1} only")
         cred = self._credential_of(agent_user(agent_id))

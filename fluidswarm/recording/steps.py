@@ -55,7 +55,9 @@ class Recorder:
         self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
 
     def on_command(self, sample) -> None:
-        self.inbox.put((3, sample.payload.to_bytes()))
+        # the exact key only: a put on a wildcard key (`fluidswarm/**`) reaches this subscriber too
+        if str(sample.key_expr) == keys.command_key(self.run):
+            self.inbox.put((3, sample.payload.to_bytes()))
 
     def t(self, step: int) -> float:
         return max(step, 0) * self.dt
@@ -68,7 +70,7 @@ class Recorder:
             decoded, _reason = decode_state(data)
             # The key's id is the publisher's (the router's access control, docs/security.md); a record
             # naming another agent is a forgery.
-            if decoded is None or keys.state_sender(key) not in (None, decoded[0]):
+            if decoded is None or not keys.state_key_vouches(key, decoded[0]):
                 self.rejected += 1
                 return
             j, step, cls, values = decoded

@@ -3,10 +3,11 @@
 
 use std::time::Instant;
 
-use serde_json::json;
-
 use super::inbox::Msg;
 use super::{unix_now, Agent, Halt, BEHIND_SENDERS, BEHIND_STEPS, MAX_AHEAD};
+use crate::ctl::{self, Ctl};
+use crate::event::EventKind;
+use crate::keys;
 use crate::spec::Mode;
 use crate::sph::{X, Y};
 use crate::wire;
@@ -25,31 +26,26 @@ impl Agent {
                 Ok(())
             }
             Msg::Ctl(key, payload) => {
-                if key.ends_with("/start") {
-                    self.started = true;
-                    // Paced from the first step: until the launcher's first tick (it ticks once it has seen
-                    // states) an agent with few expected neighbours would race CLOCK_LEAD+ steps ahead and
-                    // make its slower neighbours conclude they fell behind.
-                    self.clock.get_or_insert(0);
-                } else if key.ends_with("/stop") {
-                    return Err(Halt::Stop);
-                } else if key.ends_with("/clock") && payload.len() == 8 {
-                    let mut b = [0u8; 8];
-                    b.copy_from_slice(&payload);
-                    self.clock = Some(u64::from_le_bytes(b));
-                } else if key.ends_with("/gone") && payload.len() == 4 {
+                // Exact keys only: a put on a wildcard key (`fluidswarm/**`) reaches this subscriber too, and
+                // the router's deny rules cannot name every wildcard (docs/security.md).
+                let Some(msg) = ctl::decode(keys::ctl_what(&self.spec.run, &key), &payload) else {
+                    self.reject("ctl");
+                    return Ok(());
+                };
+                match msg {
+                    Ctl::Start => {
+                        self.started = true;
+                        // Paced from the first step: until the launcher's first tick (it ticks once it has seen
+                        // states) an agent with few expected neighbours would race CLOCK_LEAD+ steps ahead and
+                        // make its slower neighbours conclude they fell behind.
+                        self.clock.get_or_insert(0);
+                    }
+                    Ctl::Stop => return Err(Halt::Stop),
+                    Ctl::Clock(step) => self.clock = Some(step),
                     // The launcher relays an agent's lost liveliness (docs/protocol.md: ctl/gone): one
                     // subscriber per agent on every other agent's token was O(N²) messages at start-up.
-                    let mut b = [0u8; 4];
-                    b.copy_from_slice(&payload);
-                    let j = u32::from_le_bytes(b);
-                    if j < (1u32 << 31) {
-                        return self.handle(Msg::Gone(j));
-                    }
-                } else if key.ends_with("/end") && payload.len() == 8 {
-                    let mut b = [0u8; 8];
-                    b.copy_from_slice(&payload);
-                    self.end = Some(u64::from_le_bytes(b));
+                    Ctl::Gone(j) => return self.handle(Msg::Gone(j)),
+                    Ctl::End(step) => self.end = Some(step),
                 }
                 Ok(())
             }
@@ -61,7 +57,7 @@ impl Agent {
                     None => {
                         if first && ctl.has_command() {
                             let since = unix_now() - self.session_opened_at;
-                            self.event("command_received", json!({"seconds_since_session_open": since}));
+                            self.event(EventKind::CommandReceived { seconds_since_session_open: since });
                         }
                     }
                 }
