@@ -25,6 +25,7 @@ import numpy as np
 from agent.initial_neighbours import initial_neighbours
 from agent.pacing import Pacer
 from agent.protocol import keys
+from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
 from agent.recorder_process import RecorderProcess
@@ -40,7 +41,7 @@ JOINER_SPACING = 0.6  # m: the spiral's radius grows as JOINER_SPACING * sqrt(k 
 class SwarmResult:
     ids: list[int]
     finals: dict[int, FinalReport]  # agent id -> its final report
-    events: list[dict]
+    events: list[AgentEvent]
     exit_codes: dict[int, int | None]
     wall_seconds: float
     startup_seconds: float

@@ -3,12 +3,11 @@
 A passive observer of every state message (like the recorder): the step each agent is at, when each step
 was first seen, the newest state record of each agent (for watchers such as coordinator/control/settle.py).
 From that, a thread publishes the pacing clock (the slowest live agent's step), relays lost agents on
-ctl/gone and repeats ctl/end (docs/protocol.md).
+ctl/gone and repeats ctl/end (docs/protocol.md), as agent/protocol/ctl.py records.
 """
 
 from __future__ import annotations
 
-import struct
 import threading
 import time
 
@@ -16,10 +15,9 @@ import numpy as np
 import zenoh
 
 from agent.protocol import keys
+from agent.protocol.ctl import Clock, End, Gone, encode_ctl
 from agent.protocol.wire import peek_id_step
 
-_STEP = struct.Struct("<Q")  # ctl/clock and ctl/end: a step, u64 little-endian
-_ID = struct.Struct("<I")  # ctl/gone: an agent id, u32 little-endian
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
 CLOCK_PERIOD = 0.02
@@ -104,7 +102,7 @@ class Pacer:
             # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
             for j in gone:
                 try:
-                    self.session.put(keys.ctl_key(self.run, "gone"), _ID.pack(j),
+                    self.session.put(keys.ctl_key(self.run, "gone"), encode_ctl(Gone(j)),
                                      congestion_control=zenoh.CongestionControl.BLOCK)
                 except Exception:  # the session is closing
                     return
@@ -116,7 +114,7 @@ class Pacer:
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
                 said, said_at = last, now
                 try:
-                    self.session.put(key, _STEP.pack(last), congestion_control=zenoh.CongestionControl.BLOCK)
+                    self.session.put(key, encode_ctl(Clock(last)), congestion_control=zenoh.CongestionControl.BLOCK)
                     if self.end_step is not None:
                         self.end_at(self.end_step)
                 except Exception:  # the session is closing
@@ -141,5 +139,5 @@ class Pacer:
         """Every agent finishes at `step` (or its own last step if that comes first): ctl/end, said again
         with the clock so that no agent misses it."""
         self.end_step = int(step)
-        self.session.put(keys.ctl_key(self.run, "end"), _STEP.pack(self.end_step),
+        self.session.put(keys.ctl_key(self.run, "end"), encode_ctl(End(self.end_step)),
                          congestion_control=zenoh.CongestionControl.BLOCK)

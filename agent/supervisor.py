@@ -2,14 +2,15 @@
 
 Every process started here is stopped by `stop_all` (stop message, SIGTERM, SIGKILL); agents also get
 SIGTERM from the kernel if the launcher dies (PR_SET_PDEATHSIG, set by the agent itself), so none
-outlives it. Reports and events come from the network: reports are decoded and validated by
-agent/protocol/report.py, and one published under another agent's key is dropped.
+outlives it. Reports and events come from the network: they are decoded and validated by
+agent/protocol/report.py and events.py, and one that is malformed or published under another agent's key is
+dropped (events are counted in `Swarm.malformed_events`). Start and stop go out as agent/protocol/ctl.py
+records.
 """
 
 from __future__ import annotations
 
 import ctypes
-import json
 import os
 import signal
 import subprocess
@@ -22,6 +23,8 @@ import zenoh
 
 from agent.executable import agent_executable
 from agent.protocol import keys
+from agent.protocol.ctl import Start, Stop, encode_ctl
+from agent.protocol.events import AgentEvent, decode_event
 from agent.protocol.report import FinalReport, decode_report
 from agent.protocol.spec import AgentSpec
 
@@ -47,7 +50,8 @@ class Swarm:
     session: zenoh.Session
     procs: dict[int, subprocess.Popen] = field(default_factory=dict)
     finals: dict[int, FinalReport] = field(default_factory=dict)
-    events: list[dict] = field(default_factory=list)
+    events: list[AgentEvent] = field(default_factory=list)
+    malformed_events: int = 0  # dropped: not a valid event, or under another agent's key
     alive: set[int] = field(default_factory=set)
     gone: list[int] = field(default_factory=list)  # lost agents not yet relayed on ctl/gone
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -99,14 +103,12 @@ class Supervisor:
             self.swarm.changed.notify_all()
 
     def _on_event(self, sample) -> None:
-        try:
-            msg = json.loads(sample.payload.to_bytes())
-        except ValueError:
-            return
-        if not isinstance(msg, dict) or msg.get("id") != keys.id_from_key(str(sample.key_expr)):
-            return  # malformed, or under another agent's key (docs/security.md)
+        event = decode_event(sample.payload.to_bytes())
         with self.swarm.changed:
-            self.swarm.events.append(msg)
+            if event is None or event.id != keys.id_from_key(str(sample.key_expr)):
+                self.swarm.malformed_events += 1  # malformed, or under another agent's key (docs/security.md)
+            else:
+                self.swarm.events.append(event)
 
     def _on_alive(self, sample) -> None:
         j = keys.id_from_key(str(sample.key_expr))
@@ -142,7 +144,7 @@ class Supervisor:
         """The start signal (ctl/start) every waiting agent steps from."""
         # Block, not zenoh's default Drop: at N = 1000 the links are still full of liveliness declarations
         # when the swarm starts, and an agent that missed the one start message never stepped.
-        self.swarm.session.put(keys.ctl_key(self.swarm.run, "start"), b"start",
+        self.swarm.session.put(keys.ctl_key(self.swarm.run, "start"), encode_ctl(Start()),
                                congestion_control=zenoh.CongestionControl.BLOCK)
 
     def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
@@ -181,7 +183,7 @@ class Supervisor:
         procs = self.swarm.procs
         if any(p.poll() is None for p in procs.values()):
             try:
-                self.swarm.session.put(keys.ctl_key(self.swarm.run, "stop"), b"stop")
+                self.swarm.session.put(keys.ctl_key(self.swarm.run, "stop"), encode_ctl(Stop()))
             except Exception:  # the session may already be gone on an interrupted run
                 pass
             _wait_all(procs.values(), 2.0)

@@ -25,6 +25,7 @@ from pathlib import Path
 import zenoh
 
 from agent.protocol import keys
+from agent.protocol.ctl import Clock, decode_ctl
 from agent.protocol.session import client_config
 from coordinator.control.imitation_setup import (
     CONTROLLERS, DEFAULT_CONTROLLER, build_command, observations_for, transform_for,
@@ -67,17 +68,17 @@ class SwarmClock:
     """The run's pacing clock (ctl/clock: the slowest live agent's step, published by the launcher).
 
     A gesture sequence scenario shows frame k from clock step k * frame_steps, so what the swarm sees does
-    not depend on how fast this machine steps. The payload is untrusted: exactly 8 bytes, or ignored."""
+    not depend on how fast this machine steps. The payload is untrusted: a valid clock record
+    (agent/protocol/ctl.py) on the exact key, or ignored."""
 
-    def __init__(self):
+    def __init__(self, run: str):
+        self.run = run
         self.step = 0
 
     def on_sample(self, sample) -> None:
-        data = sample.payload.to_bytes()
-        if len(data) == 8:
-            step = int.from_bytes(data, "little")
-            if step < 1 << 40:
-                self.step = max(self.step, step)
+        msg = decode_ctl(keys.ctl_what(self.run, str(sample.key_expr)), sample.payload.to_bytes())
+        if isinstance(msg, Clock):
+            self.step = max(self.step, msg.step)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -132,14 +133,8 @@ def main(argv: list[str] | None = None) -> int:
     with _command_channel(args) as (session, pub, stop):
         clock = None
         if args.frame_steps:
-            clock = SwarmClock()
-
-            def on_clock(sample) -> None:
-                # the launcher's exact key only: a put on a wildcard key (`fluidswarm/**`) reaches it too
-                if keys.ctl_what(args.run, str(sample.key_expr)) == "clock":
-                    clock.on_sample(sample)
-
-            session.declare_subscriber(keys.ctl_key(args.run, "clock"), on_clock)
+            clock = SwarmClock(args.run)  # the exact key only: a put on `fluidswarm/**` reaches it too
+            session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
         ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
         payloads = [(first, c.encode(secret)) for first, c in commands]
         tick = 0

@@ -15,6 +15,7 @@ import numpy as np
 import zenoh
 
 from agent.protocol import keys
+from agent.protocol.events import EventKind, decode_event
 from agent.protocol.wire import decode_state
 from agent.sph.particle import P, RHO, VX, VY, X, Y
 from fluidswarm.recording.writer import RunWriter
@@ -112,18 +113,14 @@ class Recorder:
                 self._write_deaths()
         elif kind == 2:
             data, key = data
-            try:
-                ev = json.loads(data)
-                j, step, what = int(ev["id"]), int(ev["step"]), str(ev["event"])[:64]
-            except (ValueError, KeyError, TypeError):
-                self.rejected += 1
+            ev = decode_event(data)
+            if ev is None or ev.id != keys.id_from_key(key):
+                self.rejected += 1  # malformed, or under another agent's key
                 return
-            if j != keys.id_from_key(key):
-                self.rejected += 1
-                return
-            if what != "started":  # lifecycle 'started' comes from liveliness, with its step
-                level = "warning" if what in ("neighbour_timeout", "fell_behind") else "info"
-                self.writer.write_event(self.t(step), level, f"agent/{j}", json.dumps(ev)[:2000], kind=what, agent=None)
+            if ev.kind is not EventKind.STARTED:  # lifecycle 'started' comes from liveliness, with its step
+                level = "warning" if ev.kind in (EventKind.NEIGHBOUR_TIMEOUT, EventKind.FELL_BEHIND) else "info"
+                text = json.dumps(ev.as_json(), sort_keys=True)[:2000]
+                self.writer.write_event(self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value, agent=None)
         elif kind == 3:
             try:
                 text = data.decode("utf-8")

@@ -1,10 +1,13 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
 //! Modules mirror the Python oracle: sph (agent/sph), wire (agent/protocol/wire.py), keys (agent/protocol/keys.py),
 //! command (agent/protocol/command.py decoding), fill (agent/fill.py and the command's crossing check),
-//! route (coordinator/control/route.py), spec (agent/protocol/spec.py).
+//! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl and event (agent/protocol/ctl.py,
+//! events.py).
 
 pub mod agent;
 pub mod command;
+pub mod ctl;
+pub mod event;
 pub mod fill;
 pub mod keys;
 pub mod route;

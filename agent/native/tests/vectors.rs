@@ -4,42 +4,16 @@
 //! The files are read with the crate's own JSON reader (`command::parse`, which reads floats correctly
 //! rounded, unlike serde_json's default) and then handled as serde_json values; floats compare bit for bit.
 
-use std::path::PathBuf;
+mod common;
 
-use fluidswarm_agent::command::{self, Json};
+use common::{load, unhex};
+use fluidswarm_agent::command;
 use fluidswarm_agent::fill::{edges_cross, inside, nearest_point, Ring};
 use fluidswarm_agent::route::{class_counts, class_of, CommandFollower, FillFollower, RouteFollower};
 use fluidswarm_agent::sph::Control;
 use fluidswarm_agent::wire;
 use serde_json::Value;
 
-fn load(name: &str) -> Value {
-    let path: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "tests", "vectors", name].iter().collect();
-    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    to_value(&command::parse(&bytes).unwrap_or_else(|| panic!("{name} is not JSON")))
-}
-
-fn to_value(v: &Json) -> Value {
-    match v {
-        Json::Null => Value::Null,
-        Json::Bool(b) => Value::Bool(*b),
-        Json::Int(n) => {
-            let i: i64 = n.digits.parse().expect("vector ints fit i64");
-            Value::from(if n.negative { -i } else { i })
-        }
-        Json::Float(f) => Value::from(*f),
-        Json::Str(s) => Value::String(s.iter().map(|&c| char::from_u32(c).expect("no lone surrogates")).collect()),
-        Json::Array(items) => Value::Array(items.iter().map(to_value).collect()),
-        Json::Object(map) => Value::Object(
-            map.iter().map(|(k, v)| (k.iter().map(|&c| char::from_u32(c).unwrap()).collect(), to_value(v))).collect(),
-        ),
-    }
-}
-
-fn unhex(s: &str) -> Vec<u8> {
-    assert!(s.len().is_multiple_of(2), "odd hex");
-    (0..s.len()).step_by(2).map(|k| u8::from_str_radix(&s[k..k + 2], 16).expect("hex")).collect()
-}
 
 /// An f64 field: the same bits (so -0.0 differs from 0.0); ints in the files stand for their float.
 fn f(v: &Value) -> f64 {

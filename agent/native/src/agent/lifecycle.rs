@@ -6,12 +6,12 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use serde_json::json;
 use zenoh::Wait;
 
 use super::inbox::Msg;
 use super::report::cpu_seconds;
 use super::{unix_now, Agent, Halt, EXIT_FELL_BEHIND, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
+use crate::event::EventKind;
 use crate::keys;
 use crate::spec::Mode;
 use crate::sph::{X, Y};
@@ -28,7 +28,7 @@ impl Agent {
                 EXIT_OK
             }
             Err(Halt::FellBehind) => {
-                self.event("fell_behind", json!({}));
+                self.event(EventKind::FellBehind);
                 self.report("fell_behind");
                 EXIT_FELL_BEHIND
             }
@@ -81,7 +81,7 @@ impl Agent {
             }
             self.initial_neighbours();
         }
-        self.event("started", json!({}));
+        self.event(EventKind::Started);
         self.t_start = Some(unix_now());
         self.cpu_at_start = Some(cpu_seconds());
         self.last_step_done = Instant::now();

@@ -8,6 +8,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::Wait;
 
 use super::Agent;
+use crate::event::{Event, EventKind};
 use crate::keys;
 
 /// This process's CPU time in seconds (user + system).
@@ -30,19 +31,13 @@ pub fn peak_rss_mb() -> f64 {
 }
 
 impl Agent {
-    pub(super) fn event(&self, what: &str, fields: Value) {
-        let mut msg = Map::new();
-        msg.insert("id".into(), json!(self.spec.id));
-        msg.insert("step".into(), json!(self.step));
-        msg.insert("event".into(), json!(what));
-        if let Value::Object(extra) = fields {
-            msg.extend(extra);
-        }
+    pub(super) fn event(&self, kind: EventKind) {
+        let event = Event { id: self.spec.id, step: self.step, kind };
         // Block, not the default Drop: events and the final report are few and must not be lost under load
         // (the recorder's MCAP and the launcher's tally depend on them).
         let _ = self
             .session
-            .put(keys::event_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .put(keys::event_key(&self.spec.run, self.spec.id), event.encode())
             .congestion_control(CongestionControl::Block)
             .wait();
     }

@@ -3,9 +3,8 @@
 
 use std::time::{Duration, Instant};
 
-use serde_json::json;
-
 use super::{Agent, Halt, CLOCK_LEAD};
+use crate::event::EventKind;
 use crate::sph::{self, State, X, Y};
 
 impl Agent {
@@ -76,7 +75,7 @@ impl Agent {
         }
         if !expired.is_empty() {
             self.counters.timeouts += expired.len() as u64;
-            self.event("neighbour_timeout", json!({"neighbours": expired}));
+            self.event(EventKind::NeighbourTimeout { neighbours: expired, last_seen: None });
         }
         rows
     }

@@ -6,9 +6,8 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use serde_json::{json, Value};
-
 use super::{Agent, Halt, LAG_WAIT_STEPS, START_BURST_STEPS, START_BURST_TIMEOUT, STOP};
+use crate::event::{EventKind, Sighting};
 use crate::keys;
 use crate::sph::{X, Y};
 
@@ -105,11 +104,11 @@ impl Agent {
                     if let Some((s, jx, jy)) = self.latest.remove(j) {
                         let dist = (jx - self.state[X]).hypot(jy - self.state[Y]);
                         let watched = !jx.is_nan() && self.subscribers.contains_key(&keys::cell_of(jx, jy, self.cell));
-                        seen.push(json!([j, s, if dist.is_finite() { json!(dist) } else { Value::Null }, watched]));
+                        seen.push(Sighting { agent: *j, step: s, distance: dist.is_finite().then_some(dist), watched });
                     }
                     self.counters.timeouts += 1;
                 }
-                self.event("neighbour_timeout", json!({"neighbours": ids, "last_seen": seen}));
+                self.event(EventKind::NeighbourTimeout { neighbours: ids, last_seen: Some(seen) });
                 return Ok(());
             }
             // Arm the bell: the receiving thread rings when the last of `missing` has been heard.
