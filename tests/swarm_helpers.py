@@ -1,8 +1,12 @@
-"""Helpers shared by the tests: process inspection, the field names a command carries."""
+"""Helpers shared by the tests: process inspection, the live view of a run, the field names a command carries."""
 
 from __future__ import annotations
 
+import json
 import os
+import time
+
+from tests.foxglove_client import FoxgloveClient
 
 
 def children_of(pid: int) -> set[int]:
@@ -38,3 +42,32 @@ def field_names(obj) -> set[str]:
     if isinstance(obj, list):
         return set().union(*(field_names(v) for v in obj))
     return set()
+
+
+def wait_until(condition, timeout: float, every: float = 0.02) -> bool:
+    """Poll `condition()` until it holds (True) or `timeout` s pass (False): for a state that has no callback."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(every)
+    return True
+
+
+def wait_for_live_step(port: int, step: int, timeout: float = 60.0) -> int:
+    """Wait until the recorder's live view (Foxglove WebSocket on 127.0.0.1:`port`, `--live`) streams the
+    swarm's state at `step` or later, and return the step seen: the event "the run is stepping and being
+    recorded", instead of a fixed sleep."""
+    deadline = time.monotonic() + timeout
+    client = FoxgloveClient(f"ws://127.0.0.1:{port}", timeout=timeout)
+    try:
+        client.subscribe(client.channel("state")["id"])
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError(f"no live state at step {step} or later within {timeout:.0f} s")
+            got = client.message(timeout=left)
+            if got is not None and (seen := json.loads(got[2])["fluidswarm"]["step"]) >= step:
+                return seen
+    finally:
+        client.close()

@@ -19,13 +19,14 @@ import zenoh
 
 from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
+from agent.router_host import free_port
 from agent.protocol.report import Status
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
 from agent.protocol.wire import STATE_SIZE, encode_state
-from tests.swarm_helpers import children_of, is_running
+from tests.swarm_helpers import children_of, is_running, wait_for_live_step
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
@@ -178,7 +179,7 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
     assert error <= 1e-9
 
 
-def test_no_process_survives_a_normal_run_or_sigint():
+def test_no_process_survives_a_normal_run_or_sigint(tmp_path):
     setup = spread_block(8)
     with Launcher() as launcher:
         res = run_swarm(setup, 20, launcher=launcher)
@@ -186,18 +187,17 @@ def test_no_process_survives_a_normal_run_or_sigint():
     assert len(res.finals) == 8
     assert not any(is_running(p) for p in pids)
 
-    launch = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "8", "--steps", "100000"],
+    # SIGINT while the swarm steps: the agents and the recorder (whose live view says when it steps) stop too
+    port = free_port()
+    launch = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "8", "--steps", "100000",
+                               "--record", str(tmp_path / "run.mcap"), "--live", f"127.0.0.1:{port}"],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = launch.stdout.readline()
         assert first.startswith("run="), first
-        deadline = time.monotonic() + 60
-        kids: set[int] = set()
-        while len(kids) < 8 and time.monotonic() < deadline:
-            kids = children_of(launch.pid)
-            time.sleep(0.2)
-        assert len(kids) == 8
-        time.sleep(2.0)
+        wait_for_live_step(port, 20)
+        kids = children_of(launch.pid)
+        assert len(kids) == 8 + 1, kids  # the agents and the recorder
         launch.send_signal(signal.SIGINT)
         code = launch.wait(30)
     finally:
@@ -205,8 +205,11 @@ def test_no_process_survives_a_normal_run_or_sigint():
             launch.kill()
     assert code != 0
     assert "Traceback" not in launch.stderr.read()
-    time.sleep(0.5)
-    assert not any(is_running(p) for p in kids)
+    # the launcher waited for its children before it exited: none may still run (a moment for the kernel)
+    deadline = time.monotonic() + 2.0
+    while any(is_running(p) for p in kids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(is_running(p) for p in kids), [p for p in kids if is_running(p)]
 
 
 def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -49,16 +50,31 @@ def branches(positions: np.ndarray, split_y: float, gap: float = 1.5) -> tuple[i
     return 1 + int(np.sum(gaps > gap)), float(gaps.max())
 
 
-def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path, shared_image):
+@pytest.fixture(scope="module")
+def imitations(request, tmp_path_factory, shared_image):
+    """The `imitate` runs of the module's selected tests, side by side (they count steps, not seconds; each
+    keeps about one of the two cores busy): name -> future of imitate()'s (ids, positions, fidelity)."""
+    out = tmp_path_factory.mktemp("imitate")
+    runs = {"v": (shared_image(2), out / "v", 60, 500), "one": (shared_image(1), out / "one", 40, 450),
+            "wave": (WAVE2, out / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS), "--controller", "region")}
+    needs = {"test_v_sign_two_branches_and_one_finger_one_elongated_branch": ("v", "one"),
+             "test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso": ("wave",)}
+    selected = {name for item in request.session.items if item.module is request.module
+                for name in needs.get(item.originalname, ())}
+    with ThreadPoolExecutor(len(runs)) as pool:
+        yield {name: pool.submit(imitate, *args) for name, args in runs.items() if name in selected}
+
+
+def test_v_sign_two_branches_and_one_finger_one_elongated_branch(imitations, shared_image):
     v = shared_image(2)
-    _ids, pos2, fig2 = imitate(v, tmp_path / "v", 60, 500)
+    _ids, pos2, fig2 = imitations["v"].result()
     im2 = prepare_input(v, 60)
     # The fingers separate in the V's top third (image rows), mapped to the domain with the run's transform.
     rows = np.nonzero(im2.mask.any(axis=1))[0]
     top_y = im2.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1]
     n2, gap2 = branches(pos2, top_y)
     one = shared_image(1)
-    _ids, pos1, fig1 = imitate(one, tmp_path / "one", 40, 450)
+    _ids, pos1, fig1 = imitations["one"].result()
     im1 = prepare_input(one, 40)
     rows1 = np.nonzero(im1.mask.any(axis=1))[0]
     top1 = im1.transform.to_domain(np.array([0.0, rows1.min() + 0.3 * (rows1.max() - rows1.min())]))[1]
@@ -72,9 +88,9 @@ def test_v_sign_two_branches_and_one_finger_one_elongated_branch(tmp_path, share
     assert fig2["iou"] >= 0.7 and fig1["iou"] >= 0.7
 
 
-def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(tmp_path):
+def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(imitations):
     # The region controller (thesis ch. 6): torso and arm classes with routes through the shoulders.
-    ids, pos, fig = imitate(WAVE2, tmp_path / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS), "--controller", "region")
+    ids, pos, fig = imitations["wave"].result()
     im = prepare_input(WAVE2, 48, frame=WAVE2_SIDEWAYS, controller="region")
     assert im.observation.kind == "body" and im.observation.label == "left_side-right_side"
     shares = [c.share for c in im.command.classes]
