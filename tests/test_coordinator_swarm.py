@@ -26,7 +26,7 @@ from agent.sph.reference import PerParticleDriver
 from agent.protocol.command import CommandRejected, decode
 from coordinator.control.imitation_setup import prepare
 from fluidswarm.recording.reader import load_run
-from tests.swarm_helpers import PER_PARTICLE, field_names
+from tests.swarm_helpers import PER_PARTICLE, field_names, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
 V_SIGN = REPO / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
@@ -112,16 +112,26 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
         coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
                                   "--input", str(V_SIGN), "--agents", "30"], env=env)
         got = []
-        sub = la.session.declare_subscriber(keys.command_key(la.run), lambda s: got.append(s.payload.to_bytes()))
+        three = threading.Event()
+
+        def on_command(sample):
+            got.append(sample.payload.to_bytes())
+            if len(got) >= 3:
+                three.set()
+
+        sub = la.session.declare_subscriber(keys.command_key(la.run), on_command)
         try:
-            deadline = time.monotonic() + 30
-            while len(got) < 3 and time.monotonic() < deadline:
-                time.sleep(0.1)
+            assert three.wait(30), f"{len(got)} commands in 30 s"
             cred = la.access.env_for_agent(0)
             probe = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
-            pub = probe.declare_publisher(keys.state_key(la.run, 3, 3, 0 if la.access.state_key_ids else None))
-            time.sleep(1.0)
-            matching = pub.matching_status.matching
+            key = keys.state_key(la.run, 3, 3, 0 if la.access.state_key_ids else None)
+            pub = probe.declare_publisher(key)
+            # A positive control first: a subscriber of ours on the key, seen by the probe's publisher; once it
+            # is gone the publisher matches nothing, unless someone else (the coordinator) subscribes to states.
+            control = la.session.declare_subscriber(key, lambda _s: None)
+            seen_control = wait_until(lambda: pub.matching_status.matching, 10)
+            control.undeclare()
+            unmatched = wait_until(lambda: not pub.matching_status.matching, 10)
             probe.close()
         finally:
             coord.terminate()
@@ -133,7 +143,8 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
         assert not (field_names(body) - {"extra"}) & PER_PARTICLE
         # the default (fill) controller's parameter is the shape itself: a few rings, not one per particle
         assert 1 <= len(body["fill"]["rings"]) <= 32 and len(body["classes"]) == 1
-    assert matching is False
+    assert seen_control, "the probe's publisher never saw the control subscriber (the check below would be void)"
+    assert unmatched, "a state publisher still has a subscriber after ours left: the coordinator listens to states"
 
 
 @pytest.mark.swarm
@@ -162,13 +173,13 @@ def test_late_joiner_gets_the_command_within_one_second():
             got = []
             while not got and time.monotonic() < deadline:
                 with la.swarm.changed:
-                    got = [e for e in la.swarm.events if e.get("id") == 100 and e.get("event") == "command_received"]
+                    got = [e for e in la.swarm.events if e.id == 100 and e.kind == "command_received"]
                 time.sleep(0.2)
         finally:
             coord.terminate()
             coord.wait(10)
     assert got, "the late joiner never reported receiving the command"
-    latency = got[0]["seconds_since_session_open"]
+    latency = got[0].seconds_since_session_open
     print(f"late joiner: command {latency * 1000:.0f} ms after its session opened")
     assert 0 <= latency <= 1.0
 
