@@ -6,6 +6,7 @@ mod fields;
 
 use serde_json::Value;
 
+use crate::keys;
 use crate::sph::{Control, Params};
 use fields::{err, number, only, parse_control, parse_neighbours, parse_params, positive, string, valid_run_name};
 
@@ -66,8 +67,9 @@ impl AgentSpec {
             _ => return err(format!("run {} must be 1-64 letters, digits, '-' or '_'", obj["run"])),
         };
         let id = match obj["id"].as_u64() {
-            Some(i) if i < (1u64 << 31) => i as u32,
-            _ => return err(format!("id must be an integer in [0, 2^31), got {}", obj["id"])),
+            // Only ids below MAX_AGENTS have a key (keys::id_chunk): a larger one could not publish or be heard.
+            Some(i) if i < u64::from(keys::MAX_AGENTS) => i as u32,
+            _ => return err(format!("id must be an integer in [0, {}), got {}", keys::MAX_AGENTS, obj["id"])),
         };
         let steps = match obj["steps"].as_u64() {
             Some(s) if s <= u32::MAX as u64 => s as u32,
@@ -161,6 +163,8 @@ mod tests {
         assert!(AgentSpec::from_json(&bad).unwrap_err().contains("params.h"));
         let bad = GOOD.replace("\"id\":3", "\"id\":-3");
         assert!(AgentSpec::from_json(&bad).unwrap_err().contains("id"));
+        let bad = GOOD.replace("\"id\":3", "\"id\":8192");
+        assert!(AgentSpec::from_json(&bad).unwrap_err().contains("id must be an integer in [0, 8192)"));
         let bad = GOOD.replace("\"steps\":10", "\"steps\":10,\"bogus\":1");
         assert!(AgentSpec::from_json(&bad).unwrap_err().contains("bogus"));
         assert!(AgentSpec::from_json("[").unwrap_err().contains("not JSON"));
