@@ -239,3 +239,12 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
     r = subprocess.run([sys.executable, "-m", "fluidswarm", "agent", "--spec", json.dumps(cases["id"])],
                        capture_output=True, text=True, timeout=10)
     assert r.returncode == 2 and "id" in r.stderr
+    # ids from keys.MAX_AGENTS up have no key: both agents and the Python spec refuse them, the last one accepted
+    from agent.protocol.keys import MAX_AGENTS
+    from agent.protocol.spec import AgentSpec
+    AgentSpec.from_json(json.dumps({**spec, "id": MAX_AGENTS - 1}))
+    with pytest.raises(ValueError, match="id must be"):
+        AgentSpec.from_json(json.dumps({**spec, "id": MAX_AGENTS}))
+    r = subprocess.run([agent_executable(), "--spec", json.dumps({**spec, "id": MAX_AGENTS})],
+                       capture_output=True, text=True, timeout=10)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "id" in r.stderr, r.stderr

@@ -15,7 +15,7 @@ from fluidswarm.imitate_commands import print_lines
 from fluidswarm.run import RunRecord
 from fluidswarm.scenario_commands import print_summary
 
-# the fields the native agent sends (agent/native/src/agent.rs: report), a follower's included
+# the fields the native agent sends (agent/native/src/agent/report.rs), a follower's included
 NATIVE = {"v": 1, "id": 7, "status": "done", "steps": 120, "state": [1.5, -2.0, 0.1, 0.0, 1.0, 0.5, 0, 0, 0, 0],
           "msgs_received": 900, "neighbours": 700, "rejected": {"length": 2, "command_replay": 1}, "timeouts": 0,
           "deaths_seen": 1, "stale": 3, "dropped_out": 0, "lost": 0, "t_start": 1.79e9, "t_end": 1.79e9 + 2.5,

@@ -12,6 +12,8 @@ import json
 from dataclasses import dataclass
 from enum import Enum
 
+from agent.protocol.json_fields import integer, number
+
 VERSION = 1
 MAX_BYTES = 64 * 1024
 MAX_AGENT = 2**31 - 1
@@ -73,24 +75,11 @@ def encode_event(event: AgentEvent) -> bytes:
     return json.dumps(event.as_json(), separators=(",", ":"), allow_nan=False).encode()
 
 
-def _int(v, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise ValueError
-    return v
-
-
-def _nonnegative(v) -> float:
-    """A finite number in [0, MAX_SECONDS] (seconds, or a distance in m)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0.0 <= v <= MAX_SECONDS):
-        raise ValueError  # NaN fails the comparison too
-    return float(v)
-
-
 def _sighting(v) -> Sighting:
     if not isinstance(v, list) or len(v) != 4 or not isinstance(v[3], bool):
         raise ValueError
-    distance = None if v[2] is None else _nonnegative(v[2])
-    return Sighting(_int(v[0], 0, MAX_AGENT), _int(v[1], -1, MAX_STEP), distance, v[3])
+    distance = None if v[2] is None else number(v[2], 0.0, MAX_SECONDS)
+    return Sighting(integer(v[0], 0, MAX_AGENT), integer(v[1], -1, MAX_STEP), distance, v[3])
 
 
 def _listed(v, item) -> tuple:
@@ -110,13 +99,13 @@ def decode_event(data: bytes) -> AgentEvent | None:
         kind = EventKind(msg["event"])
         if set(msg) - {"v", "id", "step", "event"} - _FIELDS[kind] or not _REQUIRED.get(kind, set()) <= set(msg):
             return None
-        kw: dict = {"id": _int(msg["id"], 0, MAX_AGENT), "step": _int(msg["step"], 0, MAX_STEP), "kind": kind}
+        kw: dict = {"id": integer(msg["id"], 0, MAX_AGENT), "step": integer(msg["step"], 0, MAX_STEP), "kind": kind}
         if "neighbours" in msg:
-            kw["neighbours"] = _listed(msg["neighbours"], lambda j: _int(j, 0, MAX_AGENT))
+            kw["neighbours"] = _listed(msg["neighbours"], lambda j: integer(j, 0, MAX_AGENT))
         if "last_seen" in msg:
             kw["last_seen"] = _listed(msg["last_seen"], _sighting)
         if "seconds_since_session_open" in msg:
-            kw["seconds_since_session_open"] = _nonnegative(msg["seconds_since_session_open"])
+            kw["seconds_since_session_open"] = number(msg["seconds_since_session_open"], 0.0, MAX_SECONDS)
     except (ValueError, KeyError, TypeError, RecursionError):
         return None
     return AgentEvent(**kw)

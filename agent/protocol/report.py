@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass, field
 from enum import Enum
 
+from agent.protocol.json_fields import integer, number
+
 VERSION = 1
 MAX_BYTES = 64 * 1024  # a report is ~1 kB; anything far larger is not one
 MAX_COUNT = 2**63 - 1
@@ -69,18 +71,6 @@ _OPTIONAL_TIMES = ("t_start", "t_end", "session_opened_at", "cpu_seconds_at_star
 _TIMES = ("rss_mb", "cpu_seconds")
 
 
-def _int(v, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise ValueError
-    return v
-
-
-def _float(v) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > MAX_ABS:
-        raise ValueError
-    return float(v)
-
-
 def decode_report(data: bytes) -> FinalReport | None:
     """The report in `data` (JSON, wire version 1), or None if any field it carries is malformed."""
     if len(data) > MAX_BYTES:
@@ -95,22 +85,22 @@ def decode_report(data: bytes) -> FinalReport | None:
         rejected = msg.get("rejected", {})
         if not isinstance(rejected, dict) or len(rejected) > 64:
             return None
-        kw = {"id": _int(msg["id"], 0, 2**31 - 1), "status": Status(msg["status"]),
-              "steps": _int(msg["steps"], 0, MAX_COUNT), "state": tuple(_float(v) for v in state),
-              "rejected": {str(k)[:64]: _int(v, 0, MAX_COUNT) for k, v in rejected.items()},
+        kw = {"id": integer(msg["id"], 0, 2**31 - 1), "status": Status(msg["status"]),
+              "steps": integer(msg["steps"], 0, MAX_COUNT), "state": tuple(number(v, -MAX_ABS, MAX_ABS) for v in state),
+              "rejected": {str(k)[:64]: integer(v, 0, MAX_COUNT) for k, v in rejected.items()},
               "agent": str(msg.get("agent", ""))[:32]}
         for name in _COUNTS:
             if name in msg:
-                kw[name] = _int(msg[name], 0, MAX_COUNT)
+                kw[name] = integer(msg[name], 0, MAX_COUNT)
         for name in _SIGNED:
             if name in msg:
-                kw[name] = _int(msg[name], -1, MAX_COUNT)
+                kw[name] = integer(msg[name], -1, MAX_COUNT)
         for name in _TIMES:
             if name in msg:
-                kw[name] = _float(msg[name])
+                kw[name] = number(msg[name], -MAX_ABS, MAX_ABS)
         for name in _OPTIONAL_TIMES:
             if msg.get(name) is not None:
-                kw[name] = _float(msg[name])
+                kw[name] = number(msg[name], -MAX_ABS, MAX_ABS)
     except (ValueError, KeyError, TypeError):
         return None
     return FinalReport(**kw)

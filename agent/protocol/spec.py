@@ -7,7 +7,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
-from agent.protocol.keys import valid_run_name
+from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
 
@@ -49,7 +49,7 @@ class AgentSpec:
     """One agent's start-up parameters.
 
     run            run name (one key chunk)
-    id             this agent's particle id (>= 0)
+    id             this agent's particle id (0 .. keys.MAX_AGENTS - 1)
     connect        Zenoh endpoints to connect to, e.g. ["tcp/127.0.0.1:7447"]
     steps          number of steps to run (lockstep)
     initial        [x, y, vx, vy] in m and m/s
@@ -112,8 +112,9 @@ class AgentSpec:
     def validate(self) -> None:
         if not isinstance(self.run, str) or not valid_run_name(self.run):
             raise ValueError(f"agent spec: run {self.run!r} must be 1-64 letters, digits, '-' or '_'")
-        if not isinstance(self.id, int) or isinstance(self.id, bool) or not 0 <= self.id < 2**31:
-            raise ValueError(f"agent spec: id must be an integer in [0, 2^31), got {self.id!r}")
+        if not isinstance(self.id, int) or isinstance(self.id, bool) or not 0 <= self.id < MAX_AGENTS:
+            # only these ids have a key (keys.id_chunk); the native agent refuses the same (spec.rs)
+            raise ValueError(f"agent spec: id must be an integer in [0, {MAX_AGENTS}), got {self.id!r}")
         if not isinstance(self.steps, int) or self.steps < 0:
             raise ValueError(f"agent spec: steps must be a non-negative integer, got {self.steps!r}")
         if (not isinstance(self.initial, list) or len(self.initial) != 4
@@ -131,9 +132,9 @@ class AgentSpec:
             raise ValueError(f"agent spec: drop_out must be in [0, 1), got {self.drop_out!r}")
         if not isinstance(self.neighbours, list) or not all(
                 isinstance(n, list) and len(n) == 3 and isinstance(n[0], int) and not isinstance(n[0], bool)
-                and 0 <= n[0] < 2**31 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
+                and 0 <= n[0] < MAX_AGENTS and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
                 for n in self.neighbours):
-            raise ValueError("agent spec: neighbours must be a list of [id, x, y] (id in [0, 2^31), x, y finite)")
+            raise ValueError(f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)")
         self.sph_params()
         self.static_control()
 
