@@ -21,6 +21,7 @@ from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
 from agent.router_host import free_port
 from agent.protocol.report import Status
+from agent.protocol.spec import AgentSpec
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
@@ -240,11 +241,9 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
                        capture_output=True, text=True, timeout=10)
     assert r.returncode == 2 and "id" in r.stderr
     # ids from keys.MAX_AGENTS up have no key: both agents and the Python spec refuse them, the last one accepted
-    from agent.protocol.keys import MAX_AGENTS
-    from agent.protocol.spec import AgentSpec
-    AgentSpec.from_json(json.dumps({**spec, "id": MAX_AGENTS - 1}))
+    AgentSpec.from_json(json.dumps({**spec, "id": keys.MAX_AGENTS - 1}))
     with pytest.raises(ValueError, match="id must be"):
-        AgentSpec.from_json(json.dumps({**spec, "id": MAX_AGENTS}))
-    r = subprocess.run([agent_executable(), "--spec", json.dumps({**spec, "id": MAX_AGENTS})],
+        AgentSpec.from_json(json.dumps({**spec, "id": keys.MAX_AGENTS}))
+    r = subprocess.run([agent_executable(), "--spec", json.dumps({**spec, "id": keys.MAX_AGENTS})],
                        capture_output=True, text=True, timeout=10)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "id" in r.stderr, r.stderr
