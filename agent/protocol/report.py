@@ -8,7 +8,6 @@ that never reported. Fields the reader does not know are ignored (forward compat
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from enum import Enum
 

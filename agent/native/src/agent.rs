@@ -35,6 +35,7 @@ use zenoh::key_expr::KeyExpr;
 use zenoh::pubsub::Subscriber;
 use zenoh::Session;
 
+use crate::final_report::Counters;
 use crate::route::CommandFollower;
 use crate::spec::AgentSpec;
 use crate::sph::{self, State};
@@ -75,18 +76,6 @@ pub enum Halt {
 
 fn unix_now() -> f64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0)
-}
-
-#[derive(Default)]
-struct Counters {
-    msgs_received: u64,
-    neighbours: u64,
-    rejected: BTreeMap<String, u64>,
-    timeouts: u64,
-    deaths_seen: u64,
-    stale: u64,
-    dropped_out: u64,
-    lost: u64,
 }
 
 pub struct Agent {

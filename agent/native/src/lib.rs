@@ -1,14 +1,15 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
 //! Modules mirror the Python oracle: sph (agent/sph), wire (agent/protocol/wire.py), keys (agent/protocol/keys.py),
 //! command (agent/protocol/command.py decoding), fill (agent/fill.py and the command's crossing check),
-//! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl and event (agent/protocol/ctl.py,
-//! events.py).
+//! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl, event and final_report
+//! (agent/protocol/ctl.py, events.py, report.py).
 
 pub mod agent;
 pub mod command;
 pub mod ctl;
 pub mod event;
 pub mod fill;
+pub mod final_report;
 pub mod keys;
 pub mod route;
 pub mod session;

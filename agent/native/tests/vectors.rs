@@ -179,7 +179,7 @@ fn command_follower_sequences() {
                 state[1] = f(&step["control"][1]);
                 same_control(&follower.control(&state), &step["expect"], &what);
                 assert_eq!(u64::from(follower.particle_class()), step["particle_class"].as_u64().unwrap(), "{what}");
-                let mut report = follower.report();
+                let mut report = follower.report().to_json();
                 let first = report.remove("first_command_at").expect("first_command_at");
                 assert_eq!(first.is_null(), report["commands_accepted"] == 0, "{what}");
                 assert_eq!(Value::Object(report), step["report"], "{what}");

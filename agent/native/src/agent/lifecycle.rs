@@ -12,6 +12,7 @@ use super::inbox::Msg;
 use super::report::cpu_seconds;
 use super::{unix_now, Agent, Halt, EXIT_FELL_BEHIND, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
 use crate::event::EventKind;
+use crate::final_report::Status;
 use crate::keys;
 use crate::spec::Mode;
 use crate::sph::{X, Y};
@@ -24,16 +25,16 @@ impl Agent {
             Ok(()) => {
                 self.t_end = Some(unix_now());
                 self.publish(); // the final state, so neighbours still waiting for it are not held up
-                self.report("done");
+                self.report(Status::Done);
                 EXIT_OK
             }
             Err(Halt::FellBehind) => {
                 self.event(EventKind::FellBehind);
-                self.report("fell_behind");
+                self.report(Status::FellBehind);
                 EXIT_FELL_BEHIND
             }
             Err(Halt::Stop) => {
-                self.report("stopped");
+                self.report(Status::Stopped);
                 EXIT_STOPPED
             }
             Err(Halt::NoStart) => EXIT_NO_START,

@@ -3,12 +3,12 @@
 
 use std::time::Duration;
 
-use serde_json::{json, Map, Value};
 use zenoh::qos::CongestionControl;
 use zenoh::Wait;
 
 use super::Agent;
 use crate::event::{Event, EventKind};
+use crate::final_report::{FinalReport, Status};
 use crate::keys;
 
 /// This process's CPU time in seconds (user + system).
@@ -42,35 +42,24 @@ impl Agent {
             .wait();
     }
 
-    pub(super) fn report(&mut self, status: &str) {
-        let c = &self.counters;
-        let mut msg = Map::new();
-        msg.insert("v".into(), json!(1));
-        msg.insert("id".into(), json!(self.spec.id));
-        msg.insert("status".into(), json!(status));
-        msg.insert("steps".into(), json!(self.step));
-        msg.insert("state".into(), json!(self.state.to_vec()));
-        msg.insert("msgs_received".into(), json!(c.msgs_received));
-        msg.insert("neighbours".into(), json!(c.neighbours));
-        msg.insert("rejected".into(), json!(c.rejected));
-        msg.insert("timeouts".into(), json!(c.timeouts));
-        msg.insert("deaths_seen".into(), json!(c.deaths_seen));
-        msg.insert("stale".into(), json!(c.stale));
-        msg.insert("dropped_out".into(), json!(c.dropped_out));
-        msg.insert("lost".into(), json!(c.lost));
-        msg.insert("t_start".into(), json!(self.t_start));
-        msg.insert("t_end".into(), json!(self.t_end));
-        msg.insert("session_opened_at".into(), json!(self.session_opened_at));
-        msg.insert("rss_mb".into(), json!(peak_rss_mb()));
-        msg.insert("cpu_seconds".into(), json!(cpu_seconds()));
-        msg.insert("cpu_seconds_at_start".into(), json!(self.cpu_at_start));
-        msg.insert("agent".into(), json!("native"));
-        if let Some(ctl) = &self.controller {
-            msg.extend(ctl.report());
-        }
+    pub(super) fn report(&mut self, status: Status) {
+        let report = FinalReport {
+            id: self.spec.id,
+            status,
+            steps: self.step,
+            state: self.state.to_vec(),
+            counters: self.counters.clone(),
+            t_start: self.t_start,
+            t_end: self.t_end,
+            session_opened_at: self.session_opened_at,
+            rss_mb: peak_rss_mb(),
+            cpu_seconds: cpu_seconds(),
+            cpu_seconds_at_start: self.cpu_at_start,
+            following: self.controller.as_ref().map(|c| c.report()),
+        };
         let _ = self
             .session
-            .put(keys::final_key(&self.spec.run, self.spec.id), Value::Object(msg).to_string())
+            .put(keys::final_key(&self.spec.run, self.spec.id), report.encode())
             .congestion_control(CongestionControl::Block)
             .wait();
     }

@@ -3,10 +3,10 @@
 
 use std::collections::HashSet;
 
-use serde_json::{Map, Value};
 
 use super::{class_of, Follower};
 use crate::command::{self, GestureCommand};
+use crate::final_report::Following;
 use crate::sph::{Control, State, X, Y};
 
 /// Authentic but old commands remembered as replays, at most this many.
@@ -102,13 +102,13 @@ impl CommandFollower {
     }
 
     /// The controller's part of the agent's final report (coordinator/control/route.py: CommandFollower.report).
-    pub fn report(&self) -> Map<String, Value> {
-        let mut m = Map::new();
-        m.insert("commands_accepted".into(), self.accepted.into());
-        m.insert("particle_class".into(), self.particle_class.into());
-        m.insert("waypoint_index".into(), self.follower.as_ref().map_or(-1, |f| f.index() as i64).into());
-        m.insert("command_seq".into(), self.command.as_ref().map_or(-1, |c| c.seq as i64).into());
-        m.insert("first_command_at".into(), self.first_command_at.map_or(Value::Null, Value::from));
-        m
+    pub fn report(&self) -> Following {
+        Following {
+            commands_accepted: self.accepted,
+            particle_class: self.particle_class,
+            waypoint_index: self.follower.as_ref().map_or(-1, |f| f.index() as i64),
+            command_seq: self.command.as_ref().map_or(-1, |c| c.seq as i64),
+            first_command_at: self.first_command_at,
+        }
     }
 }
