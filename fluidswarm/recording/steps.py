@@ -20,8 +20,12 @@ from agent.protocol.wire import decode_state
 from agent.sph.particle import P, RHO, VX, VY, X, Y
 from fluidswarm.recording.writer import RunWriter
 
-RELEASE_SECONDS = 10.0  # a step is written this long after its first state even if some agent never reported
-QUIET_SECONDS = 3.0  # ... or once nothing new came for this long
+# A step is written once every agent it waits for has been silent this long (frozen, cut off, never reported).
+# Silent, not slow: lockstep is local, so an agent without neighbours (a late joiner placed apart) can run
+# hundreds of steps ahead of the rest; timing a step from its first state dropped the whole swarm's states
+# as late stragglers once the fast one was 10 s ahead (hand_failures_freeze_drop, 2026-11-26).
+RELEASE_SECONDS = 10.0
+QUIET_SECONDS = 3.0  # ... or once nothing new came from anyone for this long
 
 
 class Recorder:
@@ -37,6 +41,7 @@ class Recorder:
         # the swarm's step when they hear it), so the recorder expects them only from then on.
         self.joining: set[int] = set()
         self.last_step: dict[int, int] = {}
+        self.heard_at: dict[int, float] = {}  # agent -> when its last state came (monotonic s)
         self.last_positions: np.ndarray | None = None  # of the last step written (scored at the end)
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
@@ -87,6 +92,7 @@ class Recorder:
             self.pending.setdefault(step, {})[j] = (cls, values)
             self.newest = max(self.newest, step)
             self.last_step[j] = max(self.last_step.get(j, -1), step)
+            self.heard_at[j] = self.last_message
             if j in self.stopped:
                 self.stopped.discard(j)
                 self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} reports again",
@@ -145,7 +151,8 @@ class Recorder:
         have = self.pending.get(step, {})
         waiting = self._expected_at(step) - set(have)
         now = time.monotonic()
-        return (not waiting or now - self.first_seen.get(step, now) >= RELEASE_SECONDS
+        since = self.first_seen.get(step, now)  # an agent never heard of is timed from the step's first state
+        return (all(now - self.heard_at.get(j, since) >= RELEASE_SECONDS for j in waiting)
                 or now - self.last_message > QUIET_SECONDS)
 
     def _write_step(self, step: int) -> None:

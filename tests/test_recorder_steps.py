@@ -1,0 +1,78 @@
+"""The recorder's step release (fluidswarm/recording/steps.py) on a clock of our own: a fast agent far ahead
+of the others must not make their states late stragglers; a silent (frozen) agent must not hold the file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agent.protocol import keys
+from agent.protocol.wire import encode_state
+from fluidswarm.recording import steps
+from fluidswarm.recording.reader import load_run
+from fluidswarm.recording.writer import RunWriter
+
+RUN = "r1"
+
+
+class Clock:
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+@pytest.fixture
+def recorder(tmp_path, monkeypatch):
+    clock = Clock()
+    monkeypatch.setattr(steps.time, "monotonic", clock)
+    writer = RunWriter(tmp_path / "r.mcap", {"run": RUN})
+    rec = steps.Recorder(RUN, writer, dt=0.01)
+    for j in range(3):
+        rec.inbox.put((1, (keys.alive_key(RUN, j), True)))
+    rec.pump(0.0)
+    yield rec, clock, tmp_path / "r.mcap"
+    writer.close()
+
+
+def post(rec, agent: int, step: int) -> None:
+    state = np.zeros(10)
+    state[0], state[1], state[4] = agent, step * 0.01, 1.0  # x, y, rho (> 0: a real density)
+    rec.inbox.put((0, (encode_state(agent, step, state), keys.state_key(RUN, 0, 0))))
+
+
+def recorded(path) -> dict[int, set[int]]:
+    per_agent: dict[int, set[int]] = {}
+    for f in load_run(path, images=False).frames:
+        for j in f.ids.tolist():
+            per_agent.setdefault(j, set()).add(f.step)
+    return per_agent
+
+
+def test_an_agent_far_ahead_does_not_drop_the_others_states(recorder):
+    rec, clock, path = recorder
+    for k in range(60):  # agent 2 has no neighbours (lockstep is local): it runs its 60 steps at once
+        post(rec, 2, k)
+    rec.pump(0.0)
+    for k in range(60):  # the others, one step a second: 6 x RELEASE_SECONDS behind agent 2 at the end
+        clock.t += 1.0
+        post(rec, 0, k)
+        post(rec, 1, k)
+        rec.pump(0.0)
+    rec.finish()
+    rec.writer.close()
+    got = recorded(path)
+    assert all(got[j] == set(range(60)) for j in range(3)), {j: 60 - len(s) for j, s in got.items()}
+
+
+def test_a_silent_agent_is_written_off_after_release_seconds(recorder):
+    rec, clock, path = recorder
+    for k in range(40):
+        clock.t += 0.5
+        for j in (0, 1) if k > 5 else (0, 1, 2):  # agent 2 freezes after step 5
+            post(rec, j, k)
+        rec.pump(0.0)
+    # 17 s of agent 2's silence: the steps it misses were written without it, not held back
+    assert rec.next_step > 30 and 2 in rec.stopped
+    assert rec.next_step <= 40
