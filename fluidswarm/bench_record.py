@@ -9,11 +9,12 @@ KeyError deep inside. Times in s unless the name says ms; memory in MB.
 from __future__ import annotations
 
 import json
-import math
 import types
 import typing
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
+
+from fluidswarm.run import json_finite
 
 
 class BenchRecordError(ValueError):
@@ -112,7 +113,7 @@ class BenchRecord:
 
     def to_json(self, indent: int | None = None) -> str:
         """JSON text; non-finite numbers as null (JSON has no NaN)."""
-        return json.dumps(_finite(self.as_dict()), indent=indent, separators=None if indent else (",", ":"))
+        return json.dumps(json_finite(self.as_dict()), indent=indent, separators=None if indent else (",", ":"))
 
     @classmethod
     def from_dict(cls, d: object) -> "BenchRecord":
@@ -145,15 +146,6 @@ class BenchRecord:
         except BenchRecordError as exc:
             raise BenchRecordError(f"{path}: {exc}") from None
 
-
-def _finite(v):
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _finite(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_finite(x) for x in v]
-    return v
 
 
 def _value(value, hint, key: str):

@@ -144,16 +144,17 @@ class RunRecord:
 
     def to_json(self) -> str:
         """One line of JSON (non-finite numbers as null: JSON has no NaN)."""
-        return json.dumps(_finite(self.as_dict()), separators=(",", ":"))
+        return json.dumps(json_finite(self.as_dict()), separators=(",", ":"))
 
 
-def _finite(v):
+def json_finite(v):
+    """`v` with every non-finite float as None, through dicts and lists (JSON has no NaN or inf)."""
     if isinstance(v, float) and not math.isfinite(v):
         return None
     if isinstance(v, dict):
-        return {k: _finite(x) for k, x in v.items()}
+        return {k: json_finite(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return [_finite(x) for x in v]
+        return [json_finite(x) for x in v]
     return v
 
 

@@ -7,6 +7,9 @@
     and ctl/command messages: the router refuses all of them, the swarm's result is the reference's. The
     same forgeries on wildcard keys (`fluidswarm/<run>/**`, which the router's default-allow deny rules
     cannot name) reach the receivers, which take none of them (exact keys only).
+
+One concept, so one module over 300 lines: the attacks, the attacker helpers they share and each role's rights
+tried on a router with the rules.
 """
 
 from __future__ import annotations

@@ -33,6 +33,7 @@ import tempfile
 from dataclasses import dataclass
 
 from agent.protocol import keys
+from agent.protocol.acl import acl_config, agent_id_of
 
 USER_ENV = "FLUIDSWARM_ZENOH_USER"
 PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
@@ -51,7 +52,6 @@ ROLES = ("launcher", "coordinator", "recorder", "router")
 # opens, before the launcher knows the swarm's size (late joiners come later still); 1280 users add
 # ~0.16 s to its start (0.13 ms each, measured), so ids from 1280 up are refused (see Launcher.spawn).
 AGENT_CAPACITY = 1280
-_AGENT_RE = re.compile(r"^agent-(0|[1-9][0-9]{0,9})$")
 _PASSWORD_RE = re.compile(r"^[!-~]{8,128}$")  # printable ASCII, no blanks, no ':' (checked apart)
 
 
@@ -135,7 +135,7 @@ def read_users_file(path: str) -> list[Credential]:
         where = f"{path} line {n}"
         if not sep:
             raise AuthFileError(f"{where}: expected user:password")
-        if user not in ROLES and not _AGENT_RE.match(user):
+        if user not in ROLES and agent_id_of(user) is None:
             raise AuthFileError(f"{where}: user {user!r} is not a role (agent-<id>, {', '.join(ROLES)})")
         if ":" in password or not _PASSWORD_RE.match(password):
             raise AuthFileError(f"{where}: the password must be 8-128 printable characters without ':' or blanks")
@@ -153,99 +153,6 @@ def write_users_file(path: str, creds: list[Credential]) -> None:
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     with os.fdopen(fd, "w") as f:
         f.write("".join(f"{c.user}:{c.password}\n" for c in creds))
-
-
-# ---- the router's access control -------------------------------------------------------------------
-# Default allow, deny rules on the ingress flow only. With `default_permission: deny` zenoh 1.10 also runs its
-# egress filter, which rebuilds the full key of every message it forwards (N x ~26 per step): 19-24 % of the
-# steps/s (docs/benchmarks/security.md). Deny rules say everything a role must not do instead. Deny wins over
-# allow and a rule matches a message when the rule's key expression *includes* the message's, so:
-#   - "every agent's keys but mine" is one pattern per id bit (keys.py: id_chunk): `**/$*<letter>$*` with the
-#     letter of the bit agent i does not have; each agent id chunk but i's own holds at least one of them;
-#   - a message key with wildcards (`fluidswarm/**`, `.../state/*/*/*`) is included by no pattern narrower than
-#     `**`, so it passes the router; every receiver checks keys exactly (keys.state_key_vouches, ctl_what,
-#     id_from_key), and such a key names no agent id and no ctl message.
-_ANY_RUN = f"{keys.PREFIX}/*"
-_EVERYTHING = ["**"]
-_ADMIN = ["@/**"]  # the router's admin space
-_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator")
-
-
-def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
-    return {"id": rule_id, "messages": messages, "flows": ["ingress"], "permission": "deny", "key_exprs": key_exprs}
-
-
-def _kinds_but(*mine: str) -> list[str]:
-    """Key expressions of every kind of key of the protocol except `mine` (any run)."""
-    out = []
-    for kind in _KINDS:
-        if kind in mine:
-            continue
-        out.append(f"{_ANY_RUN}/{kind}" if kind in ("command", "recorder", "coordinator") else f"{_ANY_RUN}/{kind}/**")
-    return out
-
-
-def _bit_rule(k: int, bit: int) -> str:
-    return f"not-bit{k}-{bit}"
-
-
-def _agent_ids(users: list[str]) -> list[int]:
-    return sorted(int(u[len("agent-"):]) for u in users if _AGENT_RE.match(u))
-
-
-def acl_config(users: list[str]) -> dict:
-    """Zenoh's `access_control` section for these users (roles above). Default allow; ingress deny rules.
-
-    An agent may put its state, event and final keys, declare its alive token, query (the flush on its own
-    final key) and subscribe; it may not put or declare another agent's keys (the bit rules), ctl, the
-    command, cell state keys (those carry no id) or the recorder's or coordinator's tokens, and it may never
-    delete, reply, declare a queryable, query liveliness or subscribe to liveliness. The other roles likewise
-    (docs/security.md has the table); the `router` role (another host's router) may do everything.
-    """
-    never = ["delete", "reply", "declare_queryable"]
-    rules = [
-        _deny("never", never, _EVERYTHING),
-        _deny("no-admin", ["put", "query", "liveliness_token"], _ADMIN),
-        # agents
-        _deny("agent-never", ["liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
-        _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*"]),
-        _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
-        # launcher (multi-host: a launcher that connects to a router)
-        _deny("launcher-put", ["put"], _kinds_but("ctl")),
-        _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
-        # coordinator
-        _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
-        _deny("coordinator-put", ["put"], _kinds_but("command")),
-        _deny("coordinator-token", ["liveliness_token"], _kinds_but("coordinator")),
-        # recorder
-        _deny("recorder-never", ["put", "query", "liveliness_query"], _EVERYTHING),
-        _deny("recorder-token", ["liveliness_token"], _kinds_but("recorder")),
-    ]
-    # "bit k is not b": agent ids whose bit k is 1-b may not use keys whose last chunk holds letter (k, b)
-    for k in range(keys.ID_BITS):
-        for bit in (0, 1):
-            rules.append(_deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"],
-                               [f"**/$*{keys.bit_letter(k, bit)}$*"]))
-    role_rules = {"launcher": ["never", "no-admin", "launcher-put", "launcher-token"],
-                  "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
-                  "recorder": ["never", "no-admin", "recorder-never", "recorder-token"]}
-    subjects, policies = [], []
-    for role in role_rules:
-        # `router` (another host's router) gets no rule: it may do everything (it checks its own clients
-        # itself), and so may the other end of a router-to-router link, where no user name is seen (only the
-        # accepting side authenticates): that link is mutual TLS with a certificate of the swarm's CA.
-        if role in users:
-            subjects.append({"id": role, "usernames": [role]})
-            policies.append({"id": role, "rules": role_rules[role], "subjects": [role]})
-    for i in _agent_ids(users):
-        if i >= keys.MAX_AGENTS:
-            raise ValueError(f"agent-{i}: ids 0..{keys.MAX_AGENTS - 1} only (keys.ID_BITS)")
-        subjects.append({"id": f"agent-{i}", "usernames": [f"agent-{i}"]})
-        bits = [_bit_rule(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS)]
-        policies.append({"id": f"agent-{i}", "rules": ["never", "no-admin", "agent-never", "agent-put",
-                                                          "agent-token"] + bits, "subjects": [f"agent-{i}"]})
-    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects,
-            "policies": policies}
 
 
 @dataclass
