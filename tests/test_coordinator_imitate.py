@@ -65,19 +65,20 @@ def imitations(request, tmp_path_factory, shared_image):
         yield {name: pool.submit(imitate, *args) for name, args in runs.items() if name in selected}
 
 
+def top_third_y(image, agents: int) -> float:
+    """The domain y of the hand's top third (image rows), where a V's fingers have separated, mapped with the
+    transform of the run's own input."""
+    im = prepare_input(image, agents)
+    rows = np.nonzero(im.mask.any(axis=1))[0]
+    return float(im.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1])
+
+
 def test_v_sign_two_branches_and_one_finger_one_elongated_branch(imitations, shared_image):
-    v = shared_image(2)
     _ids, pos2, fig2 = imitations["v"].result()
-    im2 = prepare_input(v, 60)
-    # The fingers separate in the V's top third (image rows), mapped to the domain with the run's transform.
-    rows = np.nonzero(im2.mask.any(axis=1))[0]
-    top_y = im2.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1]
+    top_y = top_third_y(shared_image(2), 60)
     n2, gap2 = branches(pos2, top_y)
-    one = shared_image(1)
     _ids, pos1, fig1 = imitations["one"].result()
-    im1 = prepare_input(one, 40)
-    rows1 = np.nonzero(im1.mask.any(axis=1))[0]
-    top1 = im1.transform.to_domain(np.array([0.0, rows1.min() + 0.3 * (rows1.max() - rows1.min())]))[1]
+    top1 = top_third_y(shared_image(1), 40)
     n1, _gap1 = branches(pos1, top1)
     extent = np.ptp(pos1, axis=0)
     print(f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['iou']}; "
