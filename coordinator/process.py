@@ -99,8 +99,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
     ap.add_argument("--frame-steps", type=int, default=0,
                     help="show each frame of a sequence for this many swarm steps (the run's ctl/clock) instead")
-    ap.add_argument("--user", default="")
-    ap.add_argument("--password", default="")
     args = ap.parse_args(argv)
     secret_hex = os.environ.get("FLUIDSWARM_SECRET", "")
     try:
@@ -175,7 +173,8 @@ def _command_channel(args):
     """(session, command publisher, stop event) while the coordinator publishes: its liveliness token is
     declared (docs/protocol.md), SIGTERM/SIGINT set `stop`, and the session closes however the loop ends."""
     stop = _stop_on_signals()
-    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    # credentials come from the environment the launcher sets, never from argv (docs/security.md)
+    session = zenoh.open(client_config([args.connect]))
     try:
         pub = session.declare_publisher(keys.command_key(args.run))
         token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/coordinator")

@@ -46,8 +46,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--metadata", default="{}", help="JSON object stored as the run's MCAP metadata")
     ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
-    ap.add_argument("--user", default="")
-    ap.add_argument("--password", default="")
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
     args = ap.parse_args(argv)
     if not keys.valid_run_name(args.run):
@@ -83,7 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
     recorder = Recorder(args.run, writer, args.dt)
-    session = zenoh.open(client_config([args.connect], args.user, args.password))
+    # credentials come from the environment the launcher sets, never from argv (docs/security.md)
+    session = zenoh.open(client_config([args.connect]))
     try:
         subs = [
             # On zenoh's receiving thread (indirect=False): the callback only enqueues, and a Python thread
