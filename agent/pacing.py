@@ -15,7 +15,7 @@ import numpy as np
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.ctl import Clock, End, Gone, encode_ctl
+from agent.protocol.ctl import Clock, End, Gone, ctl_message
 from agent.protocol.wire import peek_id_step
 
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
@@ -83,7 +83,6 @@ class Pacer:
         swarm and meet it again at a different step; with the clock they stay within CLOCK_LEAD steps.
         Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
         """
-        key = keys.ctl_key(self.run, "clock")
         last = said = None
         said_at = 0.0
         # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
@@ -102,7 +101,7 @@ class Pacer:
             # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
             for j in gone:
                 try:
-                    self.session.put(keys.ctl_key(self.run, "gone"), encode_ctl(Gone(j)),
+                    self.session.put(*ctl_message(self.run, Gone(j)),
                                      congestion_control=zenoh.CongestionControl.BLOCK)
                 except Exception:  # the session is closing
                     return
@@ -114,7 +113,7 @@ class Pacer:
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
                 said, said_at = last, now
                 try:
-                    self.session.put(key, encode_ctl(Clock(last)), congestion_control=zenoh.CongestionControl.BLOCK)
+                    self.session.put(*ctl_message(self.run, Clock(last)), congestion_control=zenoh.CongestionControl.BLOCK)
                     if self.end_step is not None:
                         self.end_at(self.end_step)
                 except Exception:  # the session is closing
@@ -139,5 +138,5 @@ class Pacer:
         """Every agent finishes at `step` (or its own last step if that comes first): ctl/end, said again
         with the clock so that no agent misses it."""
         self.end_step = int(step)
-        self.session.put(keys.ctl_key(self.run, "end"), encode_ctl(End(self.end_step)),
+        self.session.put(*ctl_message(self.run, End(self.end_step)),
                          congestion_control=zenoh.CongestionControl.BLOCK)

@@ -23,7 +23,7 @@ import zenoh
 
 from agent.executable import agent_executable
 from agent.protocol import keys
-from agent.protocol.ctl import Start, Stop, encode_ctl
+from agent.protocol.ctl import Start, Stop, ctl_message
 from agent.protocol.events import AgentEvent, decode_event
 from agent.protocol.report import FinalReport, decode_report
 from agent.protocol.spec import AgentSpec
@@ -144,7 +144,7 @@ class Supervisor:
         """The start signal (ctl/start) every waiting agent steps from."""
         # Block, not zenoh's default Drop: at N = 1000 the links are still full of liveliness declarations
         # when the swarm starts, and an agent that missed the one start message never stepped.
-        self.swarm.session.put(keys.ctl_key(self.swarm.run, "start"), encode_ctl(Start()),
+        self.swarm.session.put(*ctl_message(self.swarm.run, Start()),
                                congestion_control=zenoh.CongestionControl.BLOCK)
 
     def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
@@ -183,7 +183,7 @@ class Supervisor:
         procs = self.swarm.procs
         if any(p.poll() is None for p in procs.values()):
             try:
-                self.swarm.session.put(keys.ctl_key(self.swarm.run, "stop"), encode_ctl(Stop()))
+                self.swarm.session.put(*ctl_message(self.swarm.run, Stop()))
             except Exception:  # the session may already be gone on an interrupted run
                 pass
             _wait_all(procs.values(), 2.0)

@@ -13,6 +13,8 @@ import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
+from agent.protocol import keys
+
 VERSION = 1
 MAX_STEP = 2**32 - 1  # steps are u32 in the state record (agent/protocol/wire.py)
 MAX_AGENT = 2**31 - 1  # agent ids, as in the spec and the report
@@ -89,6 +91,12 @@ def encode_ctl(msg: Ctl) -> bytes:
             raise ValueError(f"ctl/gone: agent must be in [0, {MAX_AGENT}], got {msg.agent}")
         return head + _ID.pack(msg.agent)
     return head
+
+
+def ctl_message(run: str, msg: Ctl) -> tuple[str, bytes]:
+    """(key, payload) of `msg` in run `run`: the key's kind and the payload's are the same by construction
+    (a receiver drops a payload put on another kind's key)."""
+    return keys.ctl_key(run, kind_of(msg).what), encode_ctl(msg)
 
 
 def decode_ctl(what: str | None, data: bytes) -> Ctl | None:
