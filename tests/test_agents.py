@@ -154,7 +154,8 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
                 while not stop.is_set():
                     for cx, cy in cells:
                         for payload in bad:
-                            session.put(keys.state_key(la.run, cx, cy, 7 if la.access.state_key_ids else None), payload)
+                            ids = la.access.state_key_ids
+                            session.put(keys.state_key(la.run, 7) if ids else keys.cell_key(la.run, cx, cy), payload)
                             sent["n"] += 1
                     time.sleep(0.05)
             finally:

@@ -39,7 +39,7 @@ def recorder(tmp_path, monkeypatch):
 def post(rec, agent: int, step: int) -> None:
     state = np.zeros(10)
     state[0], state[1], state[4] = agent, step * 0.01, 1.0  # x, y, rho (> 0: a real density)
-    rec.inbox.put((0, (encode_state(agent, step, state), keys.state_key(RUN, 0, 0))))
+    rec.inbox.put((0, (encode_state(agent, step, state), keys.cell_key(RUN, 0, 0))))
 
 
 def recorded(path) -> dict[int, set[int]]:

@@ -154,19 +154,19 @@ stop = threading.Event()
 signal.signal(signal.SIGTERM, lambda *a: stop.set())
 session = zenoh.open(client_config([sys.argv[1]]))  # FLUIDSWARM_ZENOH_USER/PASSWORD: agent-16's
 did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0}
-WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*/*/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
+WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
 def forge(sample):
     data = bytearray(sample.payload.to_bytes())
     if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
         return
-    x, = struct.unpack_from("<d", data, 16)
+    x, y = struct.unpack_from("<2d", data, 16)
     struct.pack_into("<d", data, 16, x + 0.3)
     struct.pack_into("<H", data, 12, 0x7777)
     key = str(sample.key_expr)
     session.put(key, bytes(data))  # under the real agent's id
-    session.put(key.rsplit("/", 1)[0], bytes(data))  # on its cell's key without id
+    session.put(keys.cell_key(run, int(x // 1.0), int(y // 1.0)), bytes(data))  # on its cell's key (h = 1), no id
     did["forged_other_ids"] += 2
-    session.put(key.rsplit("/", 1)[0] + "/" + keys.id_chunk(16), bytes(data))  # the real agent's record under our own key
+    session.put(keys.state_key(run, 16), bytes(data))  # the real agent's record under our own key
     did["forged_own_key"] += 1
     session.put(WILD[did["wildcard"] % len(WILD)], bytes(data))
     did["wildcard"] += 1
@@ -305,21 +305,23 @@ def test_an_id_chunk_holds_none_of_the_letters_another_ids_rules_deny():
 # sessions: user -> [(put or token, key, passes?)]
 RUN = "R"
 RIGHTS = {
-    "agent-5": [("put", keys.state_key(RUN, 1, -2, 5), True), ("put", keys.event_key(RUN, 5), True),
+    "agent-5": [("put", keys.state_key(RUN, 5), True), ("put", keys.event_key(RUN, 5), True),
                 ("put", keys.final_key(RUN, 5), True), ("token", keys.alive_key(RUN, 5), True),
-                ("put", keys.state_key(RUN, 1, -2, 4), False), ("put", keys.state_key(RUN, 1, -2, 7), False),
-                ("put", keys.state_key(RUN, 1, -2, 5 + 4096), False), ("put", keys.state_key(RUN, 1, -2), False),
+                ("token", keys.where_key(RUN, 1, -2, 5), True), ("token", keys.where_key(RUN, 1, -2, 4), False),
+                ("put", keys.where_key(RUN, 1, -2, 5), False), ("put", keys.state_key(RUN, 5) + "/1", False),
+                ("put", keys.state_key(RUN, 4), False), ("put", keys.state_key(RUN, 7), False),
+                ("put", keys.state_key(RUN, 5 + 4096), False), ("put", keys.cell_key(RUN, 1, -2), False),
                 ("put", keys.event_key(RUN, 6), False), ("put", keys.final_key(RUN, 13), False),
                 ("put", f"fluidswarm/**/{keys.id_chunk(4)}", False), ("put", keys.ctl_key(RUN, "stop"), False),
                 ("put", keys.command_key(RUN), False), ("put", keys.alive_key(RUN, 5), False),
                 ("token", keys.alive_key(RUN, 4), False), ("token", f"fluidswarm/{RUN}/recorder", False),
                 ("delete", keys.event_key(RUN, 5), False)],
     "coordinator": [("put", keys.command_key(RUN), True), ("token", f"fluidswarm/{RUN}/coordinator", True),
-                    ("put", keys.ctl_key(RUN, "stop"), False), ("put", keys.state_key(RUN, 1, 2, 5), False),
-                    ("token", f"fluidswarm/{RUN}/recorder", False)],
+                    ("put", keys.ctl_key(RUN, "stop"), False), ("put", keys.state_key(RUN, 5), False),
+                    ("token", f"fluidswarm/{RUN}/recorder", False), ("token", keys.where_key(RUN, 1, -2, 5), False)],
     "recorder": [("token", f"fluidswarm/{RUN}/recorder", True), ("put", keys.command_key(RUN), False),
                  ("put", keys.event_key(RUN, 5), False), ("token", keys.alive_key(RUN, 4), False)],
-    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.state_key(RUN, 1, 2, 5), False),
+    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.state_key(RUN, 5), False),
                  ("put", keys.command_key(RUN), False), ("token", keys.alive_key(RUN, 4), False)],
 }
 

@@ -4,8 +4,8 @@ Every process of a run authenticates to its router with its own user name and pa
 the router's access control (Zenoh ACL: default allow, ingress deny rules for everything a role must not do;
 see acl_config) lets each user do only its role's part of the protocol (docs/protocol.md):
 
-    agent-<id>    put its own state (`state/<cx>/<cy>/<id>`), event and final keys, its own alive token, query
-                  its own final key; subscribe to states, ctl and the command
+    agent-<id>    put its own state (`state/<id>`), event and final keys, its own alive and `where` tokens,
+                  query its own final key; subscribe to states, ctl, the command and liveliness
     launcher      put ctl/*; subscribe to states, events, finals, alive tokens; query liveliness (a launcher
                   that connects to another router; the embedded router's own session is not a client)
     coordinator   put the command, its liveliness token; subscribe to ctl
@@ -181,7 +181,7 @@ class LaunchAccess:
         self.acl = acl
         self.capacity = capacity
         # Routers that enforce per-process rights (our embedded one at level acl; multi-host routers given a
-        # users file) let an agent publish states only under its own id: agents must put the id in the key.
+        # users file) let an agent publish states only under its own id: agents use the id layout (state/<id>).
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod

@@ -1,7 +1,8 @@
 """Zenoh key expressions of a run: defined once here, documented in docs/protocol.md (protocol v1).
 
     fluidswarm/<run>/state/<cx>/<cy>        a state published in cell (cx, cy) (the record names the agent)
-    fluidswarm/<run>/state/<cx>/<cy>/<id>   the same with the id in the key, under per-process rights (acl)
+    fluidswarm/<run>/state/<id>             instead, under per-process rights (acl): agent id's states
+    fluidswarm/<run>/where/<bx>/<by>/<cx>/<cy>/<id>  with those: liveliness token, agent id is in cell (cx, cy)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
     fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
@@ -63,35 +64,52 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
     return math.floor(x / cell), math.floor(y / cell)
 
 
-def state_key(run: str, cx: int, cy: int, agent_id: int | None = None) -> str:
-    """A state published in cell (cx, cy). With `agent_id` (a router with per-process rights) the id is the
-    last chunk, so the router's access control lets each agent publish only its own states
-    (docs/security.md); without, one exact key per cell, the id only in the record (zenoh dispatches it by a
-    table look-up; the id in the key costs 31-42 % of the steps/s, docs/benchmarks/security.md)."""
-    cell = f"{PREFIX}/{run}/state/{cx}/{cy}"
-    return cell if agent_id is None else f"{cell}/{id_chunk(agent_id)}"
+BLOCK = 4  # side of a discovery block in cells: agents watch `where` tokens per block (docs/protocol.md)
 
 
-def cell_expr(run: str, cx: int, cy: int, ids: bool = True) -> str:
-    """What an agent subscribes to for each cell it watches: every agent's key in it, or the cell's one key."""
-    return f"{PREFIX}/{run}/state/{cx}/{cy}/*" if ids else state_key(run, cx, cy)
+def cell_key(run: str, cx: int, cy: int) -> str:
+    """A state published in cell (cx, cy), the id only in the record: the layout without per-process rights,
+    one exact key per cell, the cheapest for zenoh (docs/protocol.md)."""
+    return f"{PREFIX}/{run}/state/{cx}/{cy}"
+
+
+def state_key(run: str, agent_id: int) -> str:
+    """Agent `agent_id`'s states under per-process rights (level acl): one exact key carrying its id, so the
+    router's access control lets each agent publish only its own states (docs/security.md)."""
+    return f"{PREFIX}/{run}/state/{id_chunk(agent_id)}"
 
 
 def state_sender(key: str) -> int | None:
-    """The sender id of a state key (`.../state/<cx>/<cy>/<id>`); None for a cell key or anything else."""
+    """The sender id of a state key (`fluidswarm/<run>/state/<id>`), None for anything else."""
     chunks = key.split("/")
-    return id_from_key(key) if len(chunks) == 6 and chunks[2] == "state" else None
+    ok = len(chunks) == 4 and chunks[0] == PREFIX and chunks[2] == "state" and valid_run_name(chunks[1])
+    return id_of_chunk(chunks[3]) if ok else None
 
 
 def state_key_vouches(key: str, record_id: int) -> bool:
-    """May a state record naming `record_id` arrive on `key`? On its sender's own id key, or on an exact cell
-    key (`fluidswarm/<run>/state/<cx>/<cy>`, the `auth` layout; under per-process rights the router refuses
-    an agent's put on a cell key). Anything else — another id, a wildcard key (`.../state/**`: the router's
+    """May a state record naming `record_id` arrive on `key`? On its sender's own key, or on an exact cell key
+    (`fluidswarm/<run>/state/<cx>/<cy>`, the layout without per-process rights; under them the router refuses
+    an agent's put on a cell key). Anything else — another id, a wildcard key (`.../state/*`: the router's
     deny rules cannot name every wildcard) — is a forgery."""
     chunks = key.split("/")
     if len(chunks) == 5 and chunks[0] == PREFIX and chunks[2] == "state":
         return bool(valid_run_name(chunks[1]) and _INT_RE.match(chunks[3]) and _INT_RE.match(chunks[4]))
     return state_sender(key) == record_id
+
+
+def block_of(cx: int, cy: int) -> tuple[int, int]:
+    return cx // BLOCK, cy // BLOCK
+
+
+def where_key(run: str, cx: int, cy: int, agent_id: int) -> str:
+    """Agent `agent_id`'s liveliness token while it is in cell (cx, cy)."""
+    bx, by = block_of(cx, cy)
+    return f"{PREFIX}/{run}/where/{bx}/{by}/{cx}/{cy}/{id_chunk(agent_id)}"
+
+
+def where_expr(run: str, bx: int, by: int) -> str:
+    """Every `where` token of block (bx, by): what an agent's liveliness subscriber for the block takes."""
+    return f"{PREFIX}/{run}/where/{bx}/{by}/**"
 
 
 def state_all_expr(run: str) -> str:

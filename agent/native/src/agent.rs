@@ -18,6 +18,7 @@
 //! - lifecycle: start-up (barrier, join), the run, its end
 //! - report: events and the final report
 
+mod cell_bus;
 mod inbox;
 mod lifecycle;
 mod receive;
@@ -41,6 +42,7 @@ use crate::spec::AgentSpec;
 use crate::sph::{self, State};
 
 use inbox::Shared;
+use state_bus::StateSub;
 pub use report::peak_rss_mb;
 pub use state_bus::Tuning;
 
@@ -85,16 +87,28 @@ pub struct Agent {
     cell: f64,
     r_sub: f64,
     r_keep: f64,
+    r_watch: f64,
+    /// R_sub and R_keep measured to a `where` token's cell: widened by its slack
+    r_sub_cell: f64,
+    r_keep_cell: f64,
     state: State,
     controller: Option<CommandFollower>,
     shared: Arc<Shared>,
     session: Session,
-    /// per watched cell: its subscriber and the declared key (a numeric id on the link, undeclared with it)
-    subscribers: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
-    /// (cell, sender) -> the sender's state key in that watched cell, declared once heard (see note_sender)
-    sender_keys: HashMap<((i64, i64), u32), KeyExpr<'static>>,
-    /// our current cell and its declared key (states are put on it, see declare_publisher)
-    publisher: Option<((i64, i64), KeyExpr<'static>)>,
+    /// cell layout: per watched cell, its subscriber and declared key (undeclared with it)
+    cell_subs: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
+    /// cell layout: our current cell and its declared key
+    cell_publisher: Option<((i64, i64), KeyExpr<'static>)>,
+    /// the blocks whose `where` tokens we watch: their liveliness subscribers (state_bus)
+    blocks: HashMap<(i64, i64), Subscriber<()>>,
+    /// agent -> the cells of its `where` tokens heard in the watched blocks (normally one)
+    residents: HashMap<u32, Vec<(i64, i64)>>,
+    /// agent -> the subscription to its state key
+    state_subs: HashMap<u32, StateSub>,
+    /// our state key, declared once (states are put on it)
+    state_key: Option<KeyExpr<'static>>,
+    /// our `where` token and its cell
+    where_token: Option<((i64, i64), zenoh::liveliness::LivelinessToken)>,
     _fixed: Vec<Subscriber<()>>,
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
     buffer: BTreeMap<u32, BTreeMap<u32, State>>,
@@ -139,14 +153,23 @@ impl Agent {
             cell,
             r_sub,
             r_keep: r_sub + 0.5 * cell,
+            // where tokens are watched 10 steps of our own motion farther out than the cells whose agents we
+            // subscribe to: a cell that comes within R_sub as we move has had its tokens delivered long before
+            r_watch: r_sub + (0.5 + state_bus::WHERE_SLACK) * cell + 10.0 * d,
+            r_sub_cell: r_sub + state_bus::WHERE_SLACK * cell,
+            r_keep_cell: r_sub + (0.5 + state_bus::WHERE_SLACK) * cell,
             params,
             state,
             controller,
             shared: Arc::new(Shared::default()),
             session,
-            subscribers: HashMap::new(),
-            sender_keys: HashMap::new(),
-            publisher: None,
+            cell_subs: HashMap::new(),
+            cell_publisher: None,
+            blocks: HashMap::new(),
+            residents: HashMap::new(),
+            state_subs: HashMap::new(),
+            state_key: None,
+            where_token: None,
             _fixed: Vec::new(),
             _tokens: Vec::new(),
             buffer: BTreeMap::new(),

@@ -38,40 +38,60 @@ pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
     ((x / cell).floor() as i64, (y / cell).floor() as i64)
 }
 
-/// The key of a state published in cell `c`. With `Some(id)` (access level `acl`) the agent's id is the last
-/// chunk, so the router's access control lets each agent publish only its own states (docs/security.md);
-/// with None one exact key per cell, id only in the record, which zenoh dispatches by a table look-up
-/// (docs/benchmarks/native.md, security.md: the id in the key costs 31-42 % of the steps/s).
-pub fn state_key(run: &str, c: (i64, i64), id: Option<u32>) -> String {
-    match id {
-        Some(id) => format!("{PREFIX}/{run}/state/{}/{}/{}", c.0, c.1, id_chunk(id)),
-        None => format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1),
-    }
+/// Side of a discovery block, in cells: agents watch `where` tokens per block of BLOCK x BLOCK cells, so the
+/// router holds a few liveliness interests per agent (each token change is matched against all of them).
+pub const BLOCK: i64 = 4;
+
+/// The key of agent `id`'s states: one exact key for its whole life, carrying its id, so the router's access
+/// control lets each agent publish only its own states and zenoh routes every state by a cached, exact route.
+pub fn state_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/state/{}", id_chunk(id))
 }
 
-/// What an agent subscribes to for each cell it watches: every agent's key in it, or the cell's one key.
-pub fn cell_expr(run: &str, c: (i64, i64), ids: bool) -> String {
-    if ids {
-        format!("{PREFIX}/{run}/state/{}/{}/*", c.0, c.1)
-    } else {
-        state_key(run, c, None)
-    }
+/// The key of a state published in cell `c` in the cell layout (access levels without per-process rights):
+/// one exact key per cell, the id only in the record.
+pub fn cell_key(run: &str, c: (i64, i64)) -> String {
+    format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
 }
 
-/// The sender id of a state key (`…/state/<cx>/<cy>/<id>`), None for a cell key (`…/state/<cx>/<cy>`)
-/// or anything else.
-pub fn state_sender(key: &str) -> Option<u32> {
-    // On every received state: no allocation, one pass over the chunks.
-    let (mut n, mut state) = (0, false);
-    for (k, chunk) in key.split('/').enumerate() {
-        n = k + 1;
-        state |= k == 2 && chunk == "state";
-    }
-    if n == 6 && state {
-        id_from_key(key)
-    } else {
-        None
-    }
+/// The sender id of exactly `fluidswarm/<run>/state/<id>`, None for anything else (a wildcard put
+/// `…/state/*` reaches an exact subscriber too; agent/protocol/keys.py: state_key_vouches).
+pub fn state_sender(run: &str, key: &str) -> Option<u32> {
+    id_of_chunk(key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix("/state/")?)
+}
+
+/// The block of a cell (floor division: cell -1 is in block -1).
+pub fn block_of(c: (i64, i64)) -> (i64, i64) {
+    (c.0.div_euclid(BLOCK), c.1.div_euclid(BLOCK))
+}
+
+/// Agent `id`'s liveliness token while it is in cell `c`: `fluidswarm/<run>/where/<bx>/<by>/<cx>/<cy>/<id>`.
+pub fn where_key(run: &str, c: (i64, i64), id: u32) -> String {
+    let b = block_of(c);
+    format!("{PREFIX}/{run}/where/{}/{}/{}/{}/{}", b.0, b.1, c.0, c.1, id_chunk(id))
+}
+
+/// What an agent's liveliness subscriber for block `b` takes: every `where` token in it.
+pub fn where_expr(run: &str, b: (i64, i64)) -> String {
+    format!("{PREFIX}/{run}/where/{}/{}/**", b.0, b.1)
+}
+
+/// (cell, id) of exactly a `where_key`, None for anything else (a wildcard token, a cell outside its block).
+pub fn where_of(run: &str, key: &str) -> Option<((i64, i64), u32)> {
+    let rest = key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix("/where/")?;
+    let mut chunks = rest.split('/');
+    let mut int = || chunks.next().and_then(parse_int);
+    let (bx, by, cx, cy) = (int()?, int()?, int()?, int()?);
+    let id = id_of_chunk(chunks.next()?)?;
+    (chunks.next().is_none() && block_of((cx, cy)) == (bx, by)).then_some(((cx, cy), id))
+}
+
+/// A decimal integer as keys.py writes it (no sign but '-', no leading zeros, at most 10 digits).
+fn parse_int(s: &str) -> Option<i64> {
+    let digits = s.strip_prefix('-').unwrap_or(s);
+    let canonical = !digits.is_empty() && digits.len() <= 10 && digits.bytes().all(|b| b.is_ascii_digit())
+        && (digits == "0" || !digits.starts_with('0')) && s != "-0";
+    if canonical { s.parse().ok() } else { None }
 }
 
 pub fn alive_key(run: &str, id: u32) -> String {
@@ -106,8 +126,15 @@ pub fn id_from_key(key: &str) -> Option<u32> {
     id_of_chunk(key.rsplit('/').next()?)
 }
 
-/// Cells of side `cell` that intersect the disc of `radius` around (x, y) (agent/process.py:
-/// covering_cells): the cells an agent subscribes to.
+/// Distance from (x, y) to the closest point of cell `c` (0 inside it).
+pub fn cell_distance(x: f64, y: f64, c: (i64, i64), cell: f64) -> f64 {
+    let dx = (c.0 as f64 * cell - x).max(0.0).max(x - (c.0 + 1) as f64 * cell);
+    let dy = (c.1 as f64 * cell - y).max(0.0).max(y - (c.1 + 1) as f64 * cell);
+    dx.hypot(dy)
+}
+
+/// Cells of side `cell` that intersect the disc of `radius` around (x, y); with `cell` = BLOCK cells, the
+/// blocks an agent watches.
 pub fn covering_cells(x: f64, y: f64, radius: f64, cell: f64) -> Vec<(i64, i64)> {
     let cx0 = ((x - radius) / cell).floor() as i64;
     let cx1 = ((x + radius) / cell).floor() as i64;
@@ -115,10 +142,8 @@ pub fn covering_cells(x: f64, y: f64, radius: f64, cell: f64) -> Vec<(i64, i64)>
     let cy1 = ((y + radius) / cell).floor() as i64;
     let mut out = Vec::new();
     for cx in cx0..=cx1 {
-        let dx = (cx as f64 * cell - x).max(0.0).max(x - (cx + 1) as f64 * cell);
         for cy in cy0..=cy1 {
-            let dy = (cy as f64 * cell - y).max(0.0).max(y - (cy + 1) as f64 * cell);
-            if dx * dx + dy * dy <= radius * radius {
+            if cell_distance(x, y, (cx, cy), cell) <= radius {
                 out.push((cx, cy));
             }
         }
@@ -134,15 +159,23 @@ mod tests {
     fn keys_match_the_python_ones() {
         assert_eq!(id_chunk(0), "acegikmoqsuwy");
         assert_eq!(id_chunk(5), "bcfgikmoqsuwy");
-        assert_eq!(state_key("r", (-1, 2), Some(7)), "fluidswarm/r/state/-1/2/bdfgikmoqsuwy");
-        assert_eq!(state_key("r", (-1, 2), None), "fluidswarm/r/state/-1/2");
+        assert_eq!(state_key("r", 7), "fluidswarm/r/state/bdfgikmoqsuwy");
         assert_eq!(alive_key("r", 12), "fluidswarm/r/alive/acfhikmoqsuwy");
-        assert_eq!(cell_expr("r", (-1, 2), true), "fluidswarm/r/state/-1/2/*");
-        assert_eq!(cell_expr("r", (-1, 2), false), "fluidswarm/r/state/-1/2");
-        assert_eq!(state_sender(&state_key("r", (-1, 2), Some(7))), Some(7));
-        assert_eq!(state_sender(&state_key("r", (-1, 2), None)), None);
-        assert_eq!(state_sender("fluidswarm/r/state/-1/2/*"), None);
-        assert_eq!(state_sender(&final_key("r", 7)), None);
+        assert_eq!(cell_key("r", (-1, 2)), "fluidswarm/r/state/-1/2");
+        assert_eq!(state_sender("r", &cell_key("r", (-1, 2))), None);
+        assert_eq!(state_sender("r", &state_key("r", 7)), Some(7));
+        assert_eq!(state_sender("r", "fluidswarm/r/state/*"), None);
+        assert_eq!(state_sender("r", "fluidswarm/rr/state/bdfgikmoqsuwy"), None);
+        assert_eq!(state_sender("r", "fluidswarm/r/state/bdfgikmoqsuwy/x"), None);
+        assert_eq!(state_sender("r", &final_key("r", 7)), None);
+        assert_eq!(where_key("r", (-1, 5), 7), "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy");
+        assert_eq!(where_expr("r", (-1, 1)), "fluidswarm/r/where/-1/1/**");
+        assert_eq!(where_of("r", &where_key("r", (-1, 5), 7)), Some(((-1, 5), 7)));
+        assert_eq!(where_of("r", "fluidswarm/r/where/0/1/-1/5/bdfgikmoqsuwy"), None);
+        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/05/bdfgikmoqsuwy"), None);
+        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/5/*"), None);
+        assert_eq!(where_of("r", "fluidswarm/r/where/**"), None);
+        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy/x"), None);
         assert_eq!(id_from_key(&alive_key("r", 12)), Some(12));
         assert_eq!(id_from_key("fluidswarm/r/alive/12"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/acegikmoqsuwz"), Some(4096));

@@ -30,14 +30,15 @@ pub struct AgentSpec {
     pub drop_out: f64,
     pub secret: String,
     pub join: bool,
-    /// States on `state/<cx>/<cy>/<id>` (the access-control level `acl`: the router then lets each agent
-    /// publish only its own) instead of one exact key per cell (docs/security.md, docs/protocol.md).
+    /// The id layout of the state bus (access level `acl`: the router lets each agent publish only its own
+    /// keys): states on `state/<id>`, neighbours found by `where` tokens; else one key per cell
+    /// (docs/protocol.md, docs/security.md).
     pub state_key_ids: bool,
     pub mode: Mode,
     pub rate: f64,
     pub max_age: f64,
     /// (id, x, y) of the agents the launcher placed near this one: the step-0 neighbours are those whose
-    /// initial cell the agent watches (docs/protocol.md, "Step 0")
+    /// initial cell is within R_sub (docs/protocol.md, "Step 0")
     pub neighbours: Vec<(u32, f64, f64)>,
 }
 

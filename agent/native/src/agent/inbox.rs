@@ -13,8 +13,10 @@ use crate::keys;
 use crate::wire;
 
 pub(super) enum Msg {
-    /// a state record and the agent id in its key (None: not a decimal id), which must be the record's
+    /// a state record and the agent id of its key (None: not exactly a state key), which must be the record's
     State(Vec<u8>, Option<u32>),
+    /// a `where` token of agent j in cell c appeared (true) or went (false)
+    Where((i64, i64), u32, bool),
     Gone(u32),
     Ctl(String, Vec<u8>),
     Command(Vec<u8>),
@@ -48,6 +50,11 @@ impl Shared {
             inbox.rung = true;
             self.bell.notify_one();
         }
+    }
+
+    /// Queue a message the main thread handles at its next wake-up (each step has at least one).
+    pub(super) fn push_quiet(&self, msg: Msg) {
+        self.inbox.lock().unwrap_or_else(|e| e.into_inner()).queue.push_back(msg);
     }
 
     pub(super) fn push_state(&self, data: Vec<u8>, key_id: Option<u32>) {

@@ -1,7 +1,6 @@
 //! The agent's life: start-up (fixed subscribers, the gesture command, the alive token, the start barrier or a
 //! late join), the run in its mode, and its end (final state, report, exit code).
 
-use std::collections::HashSet;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -39,14 +38,16 @@ impl Agent {
             }
             Err(Halt::NoStart) => EXIT_NO_START,
         };
-        self.subscribers.clear();
+        self.close_state_bus();
         self._fixed.clear();
         self.flush();
         code
     }
 
     fn run_inner(&mut self) -> Result<(), Halt> {
-        if let Err(e) = self.declare_fixed().and_then(|_| self.update_subscriptions()) {
+        self.seed_residents();
+        let declared = self.declare_fixed().and_then(|_| self.declare_state_key()).and_then(|_| self.update_subscriptions());
+        if let Err(e) = declared {
             eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
             return Err(Halt::Stop);
         }
@@ -61,9 +62,7 @@ impl Agent {
             }
         }
         // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
-        // agent's cell subscribers are declared and no step-0 state is missed. The state publisher too: 1000
-        // publisher declarations in the start burst delayed step-0 states past the neighbour timeout.
-        self.declare_publisher();
+        // agent's state subscriptions and `where` token are declared and no step-0 state is missed.
         match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
             Ok(t) => self._tokens.push(t),
             Err(e) => {
@@ -92,14 +91,28 @@ impl Agent {
         }
     }
 
-    /// Step-0 neighbours: of the agents the launcher placed nearby (the spec's `neighbours`), those whose
-    /// initial cell we watch — the set a query for born tokens in our cells returned before, without N × 25
-    /// liveliness queries that each walk every token in the router (docs/benchmarks/native.md, N = 1000).
-    fn initial_neighbours(&mut self) {
-        let cells: HashSet<(i64, i64)> =
-            keys::covering_cells(self.state[X], self.state[Y], self.r_sub, self.cell).into_iter().collect();
+    /// The agents the launcher placed nearby (the spec's `neighbours`) are residents of their initial cells
+    /// before their `where` tokens arrive: the first update_subscriptions subscribes to those within R_sub
+    /// before our alive token, so no step-0 state is missed however late the tokens come.
+    fn seed_residents(&mut self) {
+        if !self.spec.state_key_ids {
+            return; // the cell layout finds its step-0 neighbours' states on the cell keys
+        }
         for &(j, x, y) in &self.spec.neighbours {
-            if j != self.spec.id && cells.contains(&keys::cell_of(x, y, self.cell)) && !self.latest.contains_key(&j) {
+            if j != self.spec.id {
+                self.residents.entry(j).or_default().push(keys::cell_of(x, y, self.cell));
+            }
+        }
+    }
+
+    /// Step-0 neighbours: of the agents the launcher placed nearby (the spec's `neighbours`), those whose
+    /// initial cell is within R_sub — the set a query for born tokens in our cells returned before, without
+    /// N × 25 liveliness queries that each walk every token in the router (docs/benchmarks/native.md).
+    fn initial_neighbours(&mut self) {
+        let (x0, y0) = (self.state[X], self.state[Y]);
+        for &(j, x, y) in &self.spec.neighbours {
+            let c = keys::cell_of(x, y, self.cell);
+            if j != self.spec.id && keys::cell_distance(x0, y0, c, self.cell) <= self.r_sub && !self.latest.contains_key(&j) {
                 self.latest.insert(j, (-1, f64::NAN, f64::NAN));
             }
         }

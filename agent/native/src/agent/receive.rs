@@ -17,6 +17,10 @@ impl Agent {
     pub(super) fn handle(&mut self, msg: Msg) -> Result<(), Halt> {
         match msg {
             Msg::State(data, key_id) => self.handle_state(&data, key_id),
+            Msg::Where(c, j, present) => {
+                self.note_where(c, j, present);
+                Ok(())
+            }
             Msg::Gone(j) => {
                 if j != self.spec.id && self.dead.insert(j) {
                     self.latest.remove(&j);
@@ -74,8 +78,8 @@ impl Agent {
                 return Ok(());
             }
         };
-        // With ids in the state keys the router lets an agent publish only under its own id (docs/security.md):
-        // a record naming another id is a forgery by the key's owner. Cell keys carry no id.
+        // In the id layout the router lets an agent publish only under its own id (docs/security.md): a record
+        // naming another id is a forgery by the key's owner. Cell keys carry no id.
         if key_id != self.key_id_of(rec.id) {
             self.reject("key");
             return Ok(());
@@ -84,7 +88,6 @@ impl Agent {
         if j == self.spec.id {
             return Ok(());
         }
-        self.note_sender(j, values[X], values[Y]);
         if self.dead.contains(&j) {
             // A state it published while alive is genuine: an agent that finished (or died) just after
             // publishing its last steps has its liveliness DELETE delivered first (declarations travel at a
