@@ -286,6 +286,22 @@ def test_users_file_errors_are_one_line_naming_the_line(tmp_path):
     assert AGENT_CAPACITY >= 1000
 
 
+def test_a_state_is_taken_only_from_its_senders_key_or_an_exact_cell_key():
+    # the recorder and the launcher's pacer take a state record only on a key that vouches for it (the Rust
+    # agent's twins, keys.rs state_sender/where_of, are tested against the same strings)
+    run = "r"
+    assert keys.state_key(run, 7) == "fluidswarm/r/state/bdfgikmoqsuwy"
+    assert keys.state_key_vouches(keys.state_key(run, 7), 7) and keys.state_key_vouches(keys.cell_key(run, -1, 2), 7)
+    for key in (keys.state_key(run, 8), keys.state_key(run, 7) + "/1", f"fluidswarm/{run}/state/*",
+                f"fluidswarm/{run}/state/**", "fluidswarm/**", keys.cell_key(run, -1, 2) + "/x",
+                f"fluidswarm/{run}/state/01/2", keys.event_key(run, 7)):
+        assert not keys.state_key_vouches(key, 7), key
+    # where tokens: the block is the cell's floor division by BLOCK, as keys.rs writes it
+    assert keys.where_key(run, -1, 5, 7) == "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy"
+    assert keys.where_expr(run, -1, 1) == "fluidswarm/r/where/-1/1/**"
+    assert keys.block_of(-5, 4) == (-2, 1) and keys.block_of(3, -1) == (0, -1)
+
+
 def test_an_id_chunk_holds_none_of_the_letters_another_ids_rules_deny():
     # the router forbids agent i the keys whose last chunk holds a letter of a bit i does not have: every
     # other id's chunk holds one, i's own none; and only an exact chunk decodes to an id
