@@ -126,11 +126,17 @@ pub fn id_from_key(key: &str) -> Option<u32> {
     id_of_chunk(key.rsplit('/').next()?)
 }
 
-/// Distance from (x, y) to the closest point of cell `c` (0 inside it).
-pub fn cell_distance(x: f64, y: f64, c: (i64, i64), cell: f64) -> f64 {
+/// Squared distance from (x, y) to the closest point of cell `c` (0 inside it): compared with a squared
+/// radius on every step, no square root.
+pub fn cell_distance2(x: f64, y: f64, c: (i64, i64), cell: f64) -> f64 {
     let dx = (c.0 as f64 * cell - x).max(0.0).max(x - (c.0 + 1) as f64 * cell);
     let dy = (c.1 as f64 * cell - y).max(0.0).max(y - (c.1 + 1) as f64 * cell);
-    dx.hypot(dy)
+    dx * dx + dy * dy
+}
+
+/// Distance from (x, y) to the closest point of cell `c` (0 inside it).
+pub fn cell_distance(x: f64, y: f64, c: (i64, i64), cell: f64) -> f64 {
+    cell_distance2(x, y, c, cell).sqrt()
 }
 
 /// Cells of side `cell` that intersect the disc of `radius` around (x, y); with `cell` = BLOCK cells, the
@@ -143,7 +149,7 @@ pub fn covering_cells(x: f64, y: f64, radius: f64, cell: f64) -> Vec<(i64, i64)>
     let mut out = Vec::new();
     for cx in cx0..=cx1 {
         for cy in cy0..=cy1 {
-            if cell_distance(x, y, (cx, cy), cell) <= radius {
+            if cell_distance2(x, y, (cx, cy), cell) <= radius * radius {
                 out.push((cx, cy));
             }
         }

@@ -176,10 +176,7 @@ impl Agent {
     }
 
     fn within(&self, c: (i64, i64), radius: f64) -> bool {
-        let (x, y) = (self.state[X], self.state[Y]);
-        let dx = (c.0 as f64 * self.cell - x).max(0.0).max(x - (c.0 + 1) as f64 * self.cell);
-        let dy = (c.1 as f64 * self.cell - y).max(0.0).max(y - (c.1 + 1) as f64 * self.cell);
-        dx * dx + dy * dy <= radius * radius
+        keys::cell_distance2(self.state[X], self.state[Y], c, self.cell) <= radius * radius
     }
 
     /// Subscribed: every agent with a token in a cell within R_sub (+ WHERE_SLACK: the token's cell is where
