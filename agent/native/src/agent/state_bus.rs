@@ -118,7 +118,7 @@ impl Agent {
         let keep: HashSet<(i64, i64)> = keys::covering_cells(x, y, self.r_watch + 0.5 * self.cell, span).into_iter().collect();
         let before = self.blocks.len();
         self.blocks.retain(|b, _| keep.contains(b));
-        let mut changed = self.blocks.len() != before || self.blocks.is_empty();
+        let mut changed = self.blocks.len() != before;
         for b in keys::covering_cells(x, y, self.r_watch, span) {
             if self.blocks.contains_key(&b) {
                 continue;
@@ -220,13 +220,13 @@ impl Agent {
     /// Subscribe to agent `j`'s state key, declared first so the router sends its states with our numeric id.
     pub(super) fn subscribe_state(&mut self, j: u32) -> Result<(), String> {
         let key_decl = self.session.declare_keyexpr(keys::state_key(&self.spec.run, j)).wait().map_err(zerr)?;
-        let (shared, exact) = (Arc::clone(&self.shared), key_decl.as_str().to_string());
+        let (shared, run) = (Arc::clone(&self.shared), self.spec.run.clone());
         let sub = self
             .session
             .declare_subscriber(key_decl.clone())
             .callback(move |sample| {
-                // A put on a wildcard key (`…/state/*`) reaches this subscriber too: no id from it.
-                let key_id = (sample.key_expr().as_str() == exact).then_some(j);
+                // A put on a wildcard key (`…/state/*`) reaches this subscriber too: it names no sender.
+                let key_id = keys::state_sender(&run, sample.key_expr().as_str());
                 shared.push_state(sample.payload().to_bytes().into_owned(), key_id)
             })
             .wait()
@@ -249,6 +249,7 @@ impl Agent {
                 .put(key, record.to_vec())
                 .congestion_control(self.tuning.congestion)
                 .express(self.tuning.express)
+                // In the cell layout our own cell's subscriber would otherwise get our state back
                 .allowed_destination(Locality::Remote)
                 .wait();
         }
