@@ -54,10 +54,16 @@ pub fn cell_key(run: &str, c: (i64, i64)) -> String {
     format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
 }
 
+/// What follows `fluidswarm/<run>/<kind>/` in `key`, None for a key of another run or kind (the exact
+/// parsers below take their chunks from it; no allocation: they run on every received message).
+fn after_kind<'a>(run: &str, kind: &str, key: &'a str) -> Option<&'a str> {
+    key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix('/')?.strip_prefix(kind)?.strip_prefix('/')
+}
+
 /// The sender id of exactly `fluidswarm/<run>/state/<id>`, None for anything else (a wildcard put
 /// `…/state/*` reaches an exact subscriber too; agent/protocol/keys.py: state_key_vouches).
 pub fn state_sender(run: &str, key: &str) -> Option<u32> {
-    id_of_chunk(key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix("/state/")?)
+    id_of_chunk(after_kind(run, "state", key)?)
 }
 
 /// The block of a cell (floor division: cell -1 is in block -1).
@@ -78,7 +84,7 @@ pub fn where_expr(run: &str, b: (i64, i64)) -> String {
 
 /// (cell, id) of exactly a `where_key`, None for anything else (a wildcard token, a cell outside its block).
 pub fn where_of(run: &str, key: &str) -> Option<((i64, i64), u32)> {
-    let rest = key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix("/where/")?;
+    let rest = after_kind(run, "where", key)?;
     let mut chunks = rest.split('/');
     let mut int = || chunks.next().and_then(parse_int);
     let (bx, by, cx, cy) = (int()?, int()?, int()?, int()?);
@@ -105,7 +111,7 @@ pub fn ctl_expr(run: &str) -> String {
 /// `start`, `stop`, ... for exactly `fluidswarm/<run>/ctl/<what>`, else None: a wildcard key (`fluidswarm/**`)
 /// reaches the ctl subscriber too, and only the launcher may put the exact keys (docs/security.md).
 pub fn ctl_what<'a>(run: &str, key: &'a str) -> Option<&'a str> {
-    let rest = key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix("/ctl/")?;
+    let rest = after_kind(run, "ctl", key)?;
     (!rest.is_empty() && rest.len() <= 16 && rest.bytes().all(|b| b.is_ascii_lowercase())).then_some(rest)
 }
 

@@ -3,7 +3,6 @@
 //! to every cell within R_sub and puts its state on its own cell's key. Cheapest for zenoh 1.10 (one cached
 //! route per cell, no token traffic) but the router cannot tell who published a state (docs/security.md).
 
-use std::collections::HashSet;
 use std::sync::Arc;
 
 use zenoh::Wait;
@@ -16,8 +15,10 @@ impl Agent {
     /// Subscribe to the cells within R_sub, drop those beyond R_keep (hysteresis).
     pub(super) fn update_cell_subscriptions(&mut self) -> Result<(), String> {
         let (x, y) = (self.state[X], self.state[Y]);
-        let keep: HashSet<(i64, i64)> = keys::covering_cells(x, y, self.r_keep, self.cell).into_iter().collect();
-        let gone: Vec<(i64, i64)> = self.cell_subs.keys().filter(|c| !keep.contains(c)).copied().collect();
+        // covering_cells' own test, without building the set on every step
+        let (keep, cell) = (self.r_keep, self.cell);
+        let gone: Vec<(i64, i64)> =
+            self.cell_subs.keys().filter(|c| keys::cell_distance2(x, y, **c, cell) > keep * keep).copied().collect();
         for c in gone {
             if let Some((sub, key)) = self.cell_subs.remove(&c) {
                 drop(sub); // undeclares the subscription before its key

@@ -115,9 +115,10 @@ impl Agent {
     fn watch_blocks(&mut self) -> Result<(), String> {
         let (x, y) = (self.state[X], self.state[Y]);
         let span = self.cell * keys::BLOCK as f64;
-        let keep: HashSet<(i64, i64)> = keys::covering_cells(x, y, self.r_watch + 0.5 * self.cell, span).into_iter().collect();
+        let keep = self.r_watch + 0.5 * self.cell;
         let before = self.blocks.len();
-        self.blocks.retain(|b, _| keep.contains(b));
+        // covering_cells' own test, without building the set on every step
+        self.blocks.retain(|b, _| keys::cell_distance2(x, y, *b, span) <= keep * keep);
         let mut changed = self.blocks.len() != before;
         for b in keys::covering_cells(x, y, self.r_watch, span) {
             if self.blocks.contains_key(&b) {
