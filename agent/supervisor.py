@@ -181,11 +181,16 @@ class Supervisor:
     def stop_all(self) -> dict[int, int | None]:
         """Stop every agent (stop message, then SIGTERM, then SIGKILL); their exit codes."""
         procs = self.swarm.procs
-        if any(p.poll() is None for p in procs.values()):
+        with self.swarm.changed:
+            unreported = [i for i, p in procs.items() if p.poll() is None and i not in self.swarm.finals]
+        # ctl/stop reaches every agent of the run, on every host: an agent that reported is leaving anyway, and
+        # in a multi-host run the stop of the host that finished first would halt the others' last steps.
+        if unreported:
             try:
                 self.swarm.session.put(*ctl_message(self.swarm.run, Stop()))
             except Exception:  # the session may already be gone on an interrupted run
                 pass
+        if any(p.poll() is None for p in procs.values()):
             _wait_all(procs.values(), 2.0)
         for p in procs.values():
             if p.poll() is None:

@@ -50,7 +50,8 @@ class Block:
         missing = [i for i in ids if i not in r.finals or not r.finals[i].done]
         r.figures["agents_missing"] = len(missing)
         if missing:
-            print(f"fluidswarm verify: {len(missing)} agents did not finish (first: {missing[:5]})", file=sys.stderr)
+            why = ", ".join(_why_unfinished(i, r.finals.get(i)) for i in missing[:5])
+            print(f"fluidswarm verify: {len(missing)} agents did not finish (first: {why})", file=sys.stderr)
             error = float("inf")
         else:
             got = np.array([r.finals[i].state for i in ids])
@@ -59,3 +60,10 @@ class Block:
         if not error <= EXACT:
             r.passed = False
             r.why.append(f"max_position_error {error:.3e} > {EXACT:g} m")
+
+
+def _why_unfinished(i: int, report) -> str:
+    """`7 (fell_behind after 41 steps, 3 neighbour timeouts)` or `7 (no report)`: which end a missing agent came to."""
+    if report is None:
+        return f"{i} (no report)"
+    return f"{i} ({report.status.value} after {report.steps} steps, {report.timeouts} neighbour timeouts)"
