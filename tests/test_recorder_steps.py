@@ -3,6 +3,9 @@ of the others must not make their states late stragglers; a silent (frozen) agen
 
 from __future__ import annotations
 
+import threading
+import time
+
 import numpy as np
 import pytest
 
@@ -76,3 +79,34 @@ def test_a_silent_agent_is_written_off_after_release_seconds(recorder):
     # 17 s of agent 2's silence: the steps it misses were written without it, not held back
     assert rec.next_step > 30 and 2 in rec.stopped
     assert rec.next_step <= 40
+
+
+def test_the_last_states_still_in_flight_when_told_to_stop_are_written_and_scored(recorder):
+    rec, clock, path = recorder
+    for k in range(10):
+        for j in range(3):
+            post(rec, j, k)
+        rec.pump(0.0)
+
+    def late() -> None:  # the run's last steps arrive after the stop (the recorder runs a step or two behind)
+        time.sleep(0.1)
+        for k in (10, 11):
+            for j in range(3):
+                post(rec, j, k)
+
+    threading.Thread(target=late).start()
+    rec.finish()
+    rec.writer.close()
+    assert recorded(path) == {j: set(range(12)) for j in range(3)}
+    assert sorted(rec.last_positions[:, 1]) == pytest.approx([0.11] * 3)  # step 11's y, every agent
+
+
+def test_a_last_step_missing_agents_is_not_the_scored_formation(recorder):
+    rec, clock, path = recorder
+    for k in range(10):
+        for j in range(3) if k < 9 else (0,):  # step 9: only agent 0's state came before the end
+            post(rec, j, k)
+    rec.finish(quiet=0.05)
+    assert rec.next_step == 10
+    assert sorted(rec.last_positions[:, 0]) == [0.0, 1.0, 2.0]  # step 8, the last with every agent
+    assert rec.last_positions[:, 1] == pytest.approx([0.08] * 3)

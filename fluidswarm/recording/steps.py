@@ -26,6 +26,9 @@ from fluidswarm.recording.writer import RunWriter
 # as late stragglers once the fast one was 10 s ahead (hand_failures_freeze_drop, 2026-11-26).
 RELEASE_SECONDS = 10.0
 QUIET_SECONDS = 3.0  # ... or once nothing new came from anyone for this long
+# At the end: the last messages still on their way are taken until none came for this long (at most the limit)
+FINISH_QUIET_SECONDS = 0.3
+FINISH_LIMIT_SECONDS = 5.0
 
 
 class Recorder:
@@ -42,7 +45,9 @@ class Recorder:
         self.joining: set[int] = set()
         self.last_step: dict[int, int] = {}
         self.heard_at: dict[int, float] = {}  # agent -> when its last state came (monotonic s)
-        self.last_positions: np.ndarray | None = None  # of the last step written (scored at the end)
+        # Scored at the end: the last step written with every agent expected at it (a last step that lost some
+        # states to the run's end would score a fraction of the swarm), else the last step written.
+        self.last_positions: np.ndarray | None = None
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.next_step = 0
@@ -158,7 +163,8 @@ class Recorder:
     def _write_step(self, step: int) -> None:
         have = self.pending.pop(step, {})
         self.first_seen.pop(step, None)
-        for j in self._expected_at(step) - set(have):
+        missing = self._expected_at(step) - set(have)
+        for j in missing:
             if self.last_step.get(j, -1) < step:  # it stopped reporting: frozen or cut off
                 self.stopped.add(j)
                 self.writer.write_event(self.t(step), "warning", f"agent/{j}", f"agent {j} stopped reporting (frozen?)",
@@ -169,7 +175,8 @@ class Recorder:
         vals = np.array([have[j][1] for j in ids])
         cls = np.array([have[j][0] for j in ids], dtype=np.int64)
         self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
-        self.last_positions = vals[:, [X, Y]]
+        if not missing or self.last_positions is None:
+            self.last_positions = vals[:, [X, Y]]
 
     def _flush(self, upto: int | None = None, force: bool = False) -> None:
         while self.next_step <= self.newest:
@@ -195,12 +202,18 @@ class Recorder:
                 break
         self._flush()
 
-    def finish(self) -> None:
-        while True:
+    def finish(self, quiet: float = FINISH_QUIET_SECONDS, limit: float = FINISH_LIMIT_SECONDS) -> None:
+        """Write everything heard, the last states still in flight included: told to stop once the agents have
+        reported, the recorder still has their last steps on the way (it runs a step or two behind at
+        N = 300), so it takes what arrives until `quiet` s pass without a message (at most `limit` s)."""
+        deadline = time.monotonic() + limit
+        while (left := deadline - time.monotonic()) > 0:
             try:
-                self.handle(self.inbox.get_nowait())
+                self.handle(self.inbox.get(timeout=min(quiet, left)))
             except queue.Empty:
                 break
+        for _ in range(self.inbox.qsize()):  # a run stopped mid-stream: what is queued now, not what follows
+            self.handle(self.inbox.get_nowait())
         self._flush(force=True)
         self.next_step = max(self.next_step, max(self.dead_at.values(), default=0))
         self._write_deaths()
