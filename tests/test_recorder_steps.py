@@ -110,3 +110,15 @@ def test_a_last_step_missing_agents_is_not_the_scored_formation(recorder):
     assert rec.next_step == 10
     assert sorted(rec.last_positions[:, 0]) == [0.0, 1.0, 2.0]  # step 8, the last with every agent
     assert rec.last_positions[:, 1] == pytest.approx([0.08] * 3)
+
+
+def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
+    rec, clock, path = recorder
+    for k in range(30):
+        clock.t += 0.5
+        for j in (0, 1, 2) if k < 10 else (0, 1):  # agent 2 freezes for good at step 10
+            post(rec, j, k)
+        rec.pump(0.0)
+    rec.finish(quiet=0.05)
+    assert sorted(rec.last_positions[:, 0]) == [0.0, 1.0]  # step 29 without the frozen agent
+    assert rec.last_positions[:, 1] == pytest.approx([0.29] * 2)

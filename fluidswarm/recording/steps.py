@@ -29,6 +29,7 @@ QUIET_SECONDS = 3.0  # ... or once nothing new came from anyone for this long
 # At the end: the last messages still on their way are taken until none came for this long (at most the limit)
 FINISH_QUIET_SECONDS = 0.3
 FINISH_LIMIT_SECONDS = 5.0
+END_STEPS = 3  # the last steps of a run may lack states cut off by its end (Recorder.last_positions)
 
 
 class Recorder:
@@ -45,9 +46,9 @@ class Recorder:
         self.joining: set[int] = set()
         self.last_step: dict[int, int] = {}
         self.heard_at: dict[int, float] = {}  # agent -> when its last state came (monotonic s)
-        # Scored at the end: the last step written with every agent expected at it (a last step that lost some
-        # states to the run's end would score a fraction of the swarm), else the last step written.
-        self.last_positions: np.ndarray | None = None
+        # (step, positions) of the last step written, and of the last one with every agent expected at it
+        self.last_written: tuple[int, np.ndarray] | None = None
+        self.last_complete: tuple[int, np.ndarray] | None = None
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.next_step = 0
@@ -175,8 +176,20 @@ class Recorder:
         vals = np.array([have[j][1] for j in ids])
         cls = np.array([have[j][0] for j in ids], dtype=np.int64)
         self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
-        if not missing or self.last_positions is None:
-            self.last_positions = vals[:, [X, Y]]
+        self.last_written = (step, vals[:, [X, Y]])
+        if not missing:
+            self.last_complete = self.last_written
+
+    @property
+    def last_positions(self) -> np.ndarray | None:
+        """The final formation, scored at the end: the last step written, unless it lacks agents and a step
+        with all of them came at most END_STEPS before it — states the run's end cut off, not agents that froze
+        or died (a formation of 105 of 300 agents scored IoU 0.45 where the whole one scored 0.79)."""
+        if self.last_written is None:
+            return None
+        if self.last_complete is not None and self.last_complete[0] >= self.last_written[0] - END_STEPS:
+            return self.last_complete[1]
+        return self.last_written[1]
 
     def _flush(self, upto: int | None = None, force: bool = False) -> None:
         while self.next_step <= self.newest:
