@@ -58,7 +58,7 @@ def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_
             msg = json.loads(data)
             if subscribed[sub] == "state":
                 received[msg["fluidswarm"]["step"]] = time.monotonic()
-                assert msg["fluidswarm"]["count"] == 16 and log_time >= 0
+                assert msg["fluidswarm"]["count"] == 16 and log_time >= 0, (msg["fluidswarm"], sorted(received)[-3:])
             else:
                 other.setdefault(subscribed[sub], []).append(msg)
         client.close()

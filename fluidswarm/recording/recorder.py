@@ -90,7 +90,12 @@ def main(argv: list[str] | None = None) -> int:
             session.declare_subscriber(keys.state_all_expr(args.run), zenoh.handlers.Callback(recorder.on_state, indirect=False)),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),
-            session.liveliness().declare_subscriber(keys.alive_expr(args.run), recorder.on_alive, history=True),
+            # Direct too: an agent's alive token comes before its first state on the link, and must be queued
+            # before it. Through zenoh-python's default (a thread of its own) it could be queued after the
+            # others' step-0 states, and step 0 was written without that agent (test_live, under load).
+            session.liveliness().declare_subscriber(keys.alive_expr(args.run),
+                                                    zenoh.handlers.Callback(recorder.on_alive, indirect=False),
+                                                    history=True),
         ]
         token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
         while True:
