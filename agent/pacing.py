@@ -22,6 +22,7 @@ from agent.protocol.wire import peek_id_step
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
 CLOCK_PERIOD = 0.02
 CLOCK_REPEAT = 1.0
+GONE_GRACE = 0.25  # s a lost agent's report may come after its token's deletion (Pacer._clock)
 AHEAD = 1000  # steps: a state further ahead of the newest step seen is not believed (untrusted input)
 
 
@@ -95,8 +96,12 @@ class Pacer:
                 return
             now = time.monotonic()
             with self.swarm.changed:
-                alive = set(self.swarm.alive)
-                gone, self.swarm.gone = self.swarm.gone, []
+                alive, finals = set(self.swarm.alive), self.swarm.finals
+                # An agent that finished has its token's deletion delivered before its report (declarations
+                # travel first): only a loss without a report within GONE_GRACE is relayed. Told at once, a
+                # neighbour still waiting for the finished agent's last state would stop waiting for it.
+                gone = [j for j, t in self.swarm.gone if now - t >= GONE_GRACE and j not in finals]
+                self.swarm.gone = [(j, t) for j, t in self.swarm.gone if now - t < GONE_GRACE and j not in finals]
             # Agents learn of a lost neighbour from this relay, not from a liveliness subscriber each on every
             # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
             for j in gone:

@@ -53,7 +53,7 @@ class Swarm:
     events: list[AgentEvent] = field(default_factory=list)
     malformed_events: int = 0  # dropped: not a valid event, or under another agent's key
     alive: set[int] = field(default_factory=set)
-    gone: list[int] = field(default_factory=list)  # lost agents not yet relayed on ctl/gone
+    gone: list[tuple[int, float]] = field(default_factory=list)  # (agent, monotonic s lost) not yet relayed on ctl/gone
     lock: threading.Lock = field(default_factory=threading.Lock)
     changed: threading.Condition = None  # type: ignore[assignment]
 
@@ -121,8 +121,8 @@ class Supervisor:
             else:
                 self.swarm.alive.discard(j)
                 gone = j not in self.swarm.finals  # a finished agent's neighbours are done with it too
-            if gone:
-                self.swarm.gone.append(j)  # relayed on ctl/gone by the clock thread (no put on the router's thread)
+            if gone:  # relayed on ctl/gone by the clock thread (no put on the router's thread)
+                self.swarm.gone.append((j, time.monotonic()))
             self.swarm.changed.notify_all()
 
     def wait_alive(self, ids, timeout: float) -> None:
