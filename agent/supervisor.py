@@ -117,11 +117,10 @@ class Supervisor:
         with self.swarm.changed:
             if sample.kind == zenoh.SampleKind.PUT:
                 self.swarm.alive.add(j)
-                gone = False
             else:
                 self.swarm.alive.discard(j)
-                gone = j not in self.swarm.finals  # a finished agent's neighbours are done with it too
-            if gone:  # relayed on ctl/gone by the clock thread (no put on the router's thread)
+                # Relayed on ctl/gone by the clock thread (no put on the router's thread), which also decides
+                # whether it was a loss: a finished agent's report may still come after its token's deletion.
                 self.swarm.gone.append((j, time.monotonic()))
             self.swarm.changed.notify_all()
 
