@@ -79,6 +79,19 @@ os._exit(0)  # without closing: the router may be gone already
 '''
 
 
+def _stop(rogue: subprocess.Popen | None) -> tuple[str, str]:
+    """SIGTERM the rogue (it prints its tally and exits); killed, never left behind, if it does not exit."""
+    if rogue is None:
+        return "", ""
+    rogue.send_signal(signal.SIGTERM)
+    try:
+        return rogue.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        rogue.kill()
+        out, err = rogue.communicate()
+        pytest.fail(f"the rogue did not exit within 30 s of SIGTERM; its stderr: {err[-2000:]}")
+
+
 def _listening_ports(pid: int) -> list[int]:
     """TCP ports a process listens on, as any local process can find them (/proc/net/tcp + its fds)."""
     inodes = set()
@@ -120,9 +133,7 @@ def _verify_with_outsider(access: str) -> tuple[float, dict]:
     finally:
         if verify.poll() is None:
             verify.kill()
-        if rogue is not None:
-            rogue.send_signal(signal.SIGTERM)
-    r_out, r_err = rogue.communicate(timeout=30)
+        r_out, r_err = _stop(rogue)
     tally = json.loads(r_out.strip().splitlines()[-1]) if r_out.strip() else {"error": r_err[-500:]}
     figures = dict(line.split("=", 1) for line in out.split() if "=" in line)
     assert "max_position_error" in figures, out + err
@@ -233,8 +244,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
             observer.undeclare()
             seen_during_run = dict(seen)
         finally:
-            rogue.send_signal(signal.SIGTERM)
-            r_out, r_err = rogue.communicate(timeout=30)
+            r_out, r_err = _stop(rogue)
     sent = json.loads(r_out.strip().splitlines()[-1])
     rejected: dict[str, int] = {}
     for r in res.finals.values():
