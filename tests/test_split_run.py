@@ -6,6 +6,7 @@ not finish", each stopped one step before its end)."""
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
 import time
@@ -22,6 +23,7 @@ FS = [sys.executable, "-m", "fluidswarm"]
 def test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents():
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = subprocess.Popen(FS + ["router", "--listen", endpoint], stdout=subprocess.PIPE, text=True)
+    launchers: list[subprocess.Popen] = []
     try:
         assert router.stdout.readline().startswith("router="), "the router did not come up"
         common = ["launch", "-n", "24", "--run", "split", "--connect", endpoint, "--timeout", "1.0", "--json"]
@@ -30,6 +32,7 @@ def test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents()
         # 1 s timeout): A's launcher closes with B's agents mid-run.
         pa = subprocess.Popen(FS + common + ["--ids", "0-11", "--steps", "40"], **kw)
         pb = subprocess.Popen(FS + common + ["--ids", "12-23", "--steps", "160"], **kw)
+        launchers += [pa, pb]
         out_a, err_a = pa.communicate(timeout=240)
         t_a = time.monotonic()
         out_b, err_b = pb.communicate(timeout=240)
@@ -39,5 +42,12 @@ def test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents()
         assert ra["finished"] == 12
         assert rb["finished"] == 12, err_b
     finally:
+        for p in launchers:  # a launcher still running after a failed assertion: SIGINT stops its agents too
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+                try:
+                    p.wait(15)
+                except subprocess.TimeoutExpired:
+                    p.kill()
         router.terminate()
         router.wait(10)
