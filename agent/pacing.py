@@ -96,12 +96,13 @@ class Pacer:
                 return
             now = time.monotonic()
             with self.swarm.changed:
-                alive, finals = set(self.swarm.alive), self.swarm.finals
+                alive = set(self.swarm.alive)
                 # An agent that finished has its token's deletion delivered before its report (declarations
                 # travel first): only a loss without a report within GONE_GRACE is relayed. Told at once, a
                 # neighbour still waiting for the finished agent's last state would stop waiting for it.
-                gone = [j for j, t in self.swarm.gone if now - t >= GONE_GRACE and j not in finals]
-                self.swarm.gone = [(j, t) for j, t in self.swarm.gone if now - t < GONE_GRACE and j not in finals]
+                lost = [(j, t) for j, t in self.swarm.gone if j not in self.swarm.finals]
+                gone = [j for j, t in lost if now - t >= GONE_GRACE]
+                self.swarm.gone = [(j, t) for j, t in lost if now - t < GONE_GRACE]
             # Agents learn of a lost neighbour from this relay, not from a liveliness subscriber each on every
             # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
             for j in gone:

@@ -10,6 +10,7 @@ from agent import pacing
 from agent.protocol.ctl import Gone, decode_ctl
 from agent.protocol.report import FinalReport, Status
 from agent.supervisor import Swarm
+from tests.swarm_helpers import wait_until
 
 
 class NoStates:
@@ -55,7 +56,7 @@ def test_a_lost_agent_is_relayed_after_the_grace_and_a_finished_one_never():
         assert relayed(session) == []  # within the grace: its report may still come
         with swarm.changed:  # agent 6's report arrives after its token's deletion: it finished
             swarm.finals[6] = FinalReport(id=6, status=Status.DONE, steps=10, state=(0.0,) * 10)
-        time.sleep(pacing.GONE_GRACE * 2)
+        wait_until(lambda: relayed(session), timeout=10.0)  # the clock thread, once the grace has passed
         assert relayed(session) == [5]
     finally:
         pacer.stop()

@@ -35,6 +35,7 @@ from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
+from agent.supervisor import stop_process
 
 FS = [sys.executable, "-m", "fluidswarm"]
 MARK = 0x7777  # the particle class the rogues stamp on their forgeries (a valid u16: the record stays well-formed)
@@ -83,13 +84,11 @@ def _stop(rogue: subprocess.Popen | None) -> tuple[str, str]:
     """SIGTERM the rogue (it prints its tally and exits); killed, never left behind, if it does not exit."""
     if rogue is None:
         return "", ""
-    rogue.send_signal(signal.SIGTERM)
-    try:
-        return rogue.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        rogue.kill()
-        out, err = rogue.communicate()
+    stop_process(rogue, 30.0)
+    out, err = rogue.communicate()
+    if rogue.returncode == -signal.SIGKILL:
         pytest.fail(f"the rogue did not exit within 30 s of SIGTERM; its stderr: {err[-2000:]}")
+    return out, err
 
 
 def _listening_ports(pid: int) -> list[int]:

@@ -6,7 +6,6 @@ not finish", each stopped one step before its end)."""
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
 import time
@@ -14,6 +13,7 @@ import time
 import pytest
 
 from agent.router_host import free_port
+from agent.supervisor import stop_process
 
 pytestmark = pytest.mark.swarm  # starts a router and the CLI (tests/conftest.py)
 
@@ -42,12 +42,7 @@ def test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents()
         assert ra["finished"] == 12
         assert rb["finished"] == 12, err_b
     finally:
-        for p in launchers:  # a launcher still running after a failed assertion: SIGINT stops its agents too
-            if p.poll() is None:
-                p.send_signal(signal.SIGINT)
-                try:
-                    p.wait(15)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        for p in launchers:  # still running after a failed assertion: SIGTERM unwinds like Ctrl-C (its agents too)
+            stop_process(p, 15.0)
         router.terminate()
         router.wait(10)
