@@ -60,12 +60,6 @@ fn after_kind<'a>(run: &str, kind: &str, key: &'a str) -> Option<&'a str> {
     key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix('/')?.strip_prefix(kind)?.strip_prefix('/')
 }
 
-/// The sender id of exactly `fluidswarm/<run>/state/<id>`, None for anything else (a wildcard put
-/// `…/state/*` reaches an exact subscriber too; agent/protocol/keys.py: state_key_vouches).
-pub fn state_sender(run: &str, key: &str) -> Option<u32> {
-    id_of_chunk(after_kind(run, "state", key)?)
-}
-
 /// The block of a cell (floor division: cell -1 is in block -1).
 pub fn block_of(c: (i64, i64)) -> (i64, i64) {
     (c.0.div_euclid(BLOCK), c.1.div_euclid(BLOCK))
@@ -174,12 +168,6 @@ mod tests {
         assert_eq!(state_key("r", 7), "fluidswarm/r/state/bdfgikmoqsuwy");
         assert_eq!(alive_key("r", 12), "fluidswarm/r/alive/acfhikmoqsuwy");
         assert_eq!(cell_key("r", (-1, 2)), "fluidswarm/r/state/-1/2");
-        assert_eq!(state_sender("r", &cell_key("r", (-1, 2))), None);
-        assert_eq!(state_sender("r", &state_key("r", 7)), Some(7));
-        assert_eq!(state_sender("r", "fluidswarm/r/state/*"), None);
-        assert_eq!(state_sender("r", "fluidswarm/rr/state/bdfgikmoqsuwy"), None);
-        assert_eq!(state_sender("r", "fluidswarm/r/state/bdfgikmoqsuwy/x"), None);
-        assert_eq!(state_sender("r", &final_key("r", 7)), None);
         assert_eq!(where_key("r", (-1, 5), 7), "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy");
         assert_eq!(where_expr("r", (-1, 1)), "fluidswarm/r/where/-1/1/**");
         assert_eq!(where_of("r", &where_key("r", (-1, 5), 7)), Some(((-1, 5), 7)));

@@ -76,6 +76,7 @@ impl Agent {
 
     /// Undeclare every state subscription and watched block (the end of the run).
     pub(super) fn close_state_bus(&mut self) {
+        self.own_key_sub = None;
         self.cell_subs.clear();
         for sub in self.state_subs.values_mut() {
             sub.close(&self.session);
@@ -220,14 +221,16 @@ impl Agent {
 
     /// Subscribe to agent `j`'s state key, declared first so the router sends its states with our numeric id.
     pub(super) fn subscribe_state(&mut self, j: u32) -> Result<(), String> {
-        let key_decl = self.session.declare_keyexpr(keys::state_key(&self.spec.run, j)).wait().map_err(zerr)?;
-        let (shared, run) = (Arc::clone(&self.shared), self.spec.run.clone());
+        let key = keys::state_key(&self.spec.run, j);
+        let key_decl = self.session.declare_keyexpr(key.clone()).wait().map_err(zerr)?;
+        let shared = Arc::clone(&self.shared);
         let sub = self
             .session
             .declare_subscriber(key_decl.clone())
             .callback(move |sample| {
-                // A put on a wildcard key (`…/state/*`) reaches this subscriber too: it names no sender.
-                let key_id = keys::state_sender(&run, sample.key_expr().as_str());
+                // A put on a wildcard key (`…/state/*`) reaches this subscriber too: it names no sender. A
+                // comparison with our exact key, not a parse of it: this runs for every state received.
+                let key_id = (sample.key_expr().as_str() == key).then_some(j);
                 shared.push_state(sample.payload().to_bytes().into_owned(), key_id)
             })
             .wait()
@@ -256,16 +259,25 @@ impl Agent {
         }
     }
 
-    /// Our state key, declared once (a numeric id on the link). States go out with `session.put`, not a
-    /// declared Publisher: a publisher's subscriber interest, once finalized, makes the client drop puts for
-    /// which it has not yet heard of a matching subscriber (zenoh's write-side filtering), so a neighbour
-    /// that had just subscribed could miss a state. A plain put on a key without interest always goes to
-    /// the router.
+    /// Our state key, declared once. States go out with `session.put`, not a declared Publisher: a
+    /// publisher's subscriber interest, once finalized, makes the client drop puts for which it has not yet
+    /// heard of a matching subscriber (zenoh's write-side filtering), so a neighbour that had just subscribed
+    /// could miss a state. A plain put on a key without interest always goes to the router.
+    ///
+    /// `declare_keyexpr` gives the key a numeric id between this session and its own runtime only; the
+    /// runtime names the key to the router once something is declared on it there. Without that every state
+    /// reaches the router as a key string, which it resolves chunk by chunk and, having no cached decision
+    /// for a string, runs through its access-control rules again: per message, ~30 % of the router's time at
+    /// N = 300 (docs/benchmarks/security.md, "Our own key, declared to the router"). A subscriber on our own
+    /// key declares it; it receives nothing (our puts are for remote subscribers only, and the router sends
+    /// nobody its own messages back). The cell layout needs none: we subscribe to our own cell anyway.
     pub(super) fn declare_state_key(&mut self) -> Result<(), String> {
         if !self.spec.state_key_ids {
             return Ok(()); // the cell layout declares a key per cell as it goes (cell_publish_key)
         }
         let key = self.session.declare_keyexpr(keys::state_key(&self.spec.run, self.spec.id)).wait().map_err(zerr)?;
+        let sub = self.session.declare_subscriber(key.clone()).callback(|_| {}).wait().map_err(zerr)?;
+        self.own_key_sub = Some(sub);
         self.state_key = Some(key);
         Ok(())
     }
