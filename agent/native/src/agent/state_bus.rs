@@ -267,8 +267,8 @@ impl Agent {
     /// `declare_keyexpr` gives the key a numeric id between this session and its own runtime only; the
     /// runtime names the key to the router once something is declared on it there. Without that every state
     /// reaches the router as a key string, which it resolves chunk by chunk and, having no cached decision
-    /// for a string, runs through its access-control rules again: per message, ~30 % of the router's time at
-    /// N = 300 (docs/benchmarks/security.md, "Our own key, declared to the router"). A subscriber on our own
+    /// for a string, runs through its access-control rules again: at N = 300 the run was 15-26 % slower side
+    /// by side (docs/benchmarks/security.md, "Our own key, declared to the router"). A subscriber on our own
     /// key declares it; it receives nothing (our puts are for remote subscribers only, and the router sends
     /// nobody its own messages back). The cell layout needs none: we subscribe to our own cell anyway.
     pub(super) fn declare_state_key(&mut self) -> Result<(), String> {
