@@ -122,3 +122,35 @@ def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
     rec.finish(quiet=0.05)
     assert sorted(rec.last_positions[:, 0]) == [0.0, 1.0]  # step 29 without the frozen agent
     assert rec.last_positions[:, 1] == pytest.approx([0.29] * 2)
+
+
+def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
+    """The recorder process's SIGTERM (the launcher stops it at the run's end) arrives wherever its main thread
+    is; here, inside the write of step 5. The step being written and the ones after it must all be in the file."""
+    import signal
+
+    from fluidswarm.recording import recorder as process
+
+    rec, clock, path = recorder
+    saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    write_states = rec.writer.write_states
+
+    def write_and_be_stopped(step, *rest):
+        if step == 5:
+            signal.raise_signal(signal.SIGTERM)  # its handler runs before the write below
+        write_states(step, *rest)
+
+    rec.writer.write_states = write_and_be_stopped
+    try:
+        stop = process.stop_on_signals()
+        for k in range(10):
+            for j in range(3):
+                post(rec, j, k)
+        process.record(rec, stop, poll=0.0)
+        assert stop.is_set()
+        rec.finish(quiet=0.01)
+    finally:
+        for s, h in saved.items():
+            signal.signal(s, h)
+    rec.writer.close()
+    assert recorded(path) == {j: set(range(10)) for j in range(3)}
