@@ -16,9 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
 import sys
-import threading
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -27,6 +25,7 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.ctl import Clock, decode_ctl
 from agent.protocol.session import client_config
+from agent.protocol.stopping import stop_on_signals
 from coordinator.control.imitation_setup import (
     CONTROLLERS, DEFAULT_CONTROLLER, build_command, observations_for, transform_for,
 )
@@ -160,19 +159,11 @@ def _load_commands(path):
     return [(int(item["first"]), parse_body(item["body"])) for item in items]
 
 
-def _stop_on_signals() -> threading.Event:
-    """An event set by SIGTERM or SIGINT: the publishing loop ends and the session closes cleanly."""
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    signal.signal(signal.SIGINT, lambda *a: stop.set())
-    return stop
-
-
 @contextmanager
 def _command_channel(args):
     """(session, command publisher, stop event) while the coordinator publishes: its liveliness token is
     declared (docs/protocol.md), SIGTERM/SIGINT set `stop`, and the session closes however the loop ends."""
-    stop = _stop_on_signals()
+    stop = stop_on_signals()
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)
     session = zenoh.open(client_config([args.connect]))
     try:

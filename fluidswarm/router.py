@@ -9,14 +9,13 @@ certificate signed by that CA open a link.
 
 from __future__ import annotations
 
-import signal
-import threading
 
 import zenoh
 
 from agent.protocol.access import AuthFileError, acl_config, read_users_file
 from agent.protocol.errors import UserError
 from agent.protocol.session import TlsFiles, router_config
+from agent.protocol.stopping import stop_on_signals
 
 
 def register(sub) -> None:
@@ -78,9 +77,7 @@ def run(args) -> int:
         session = zenoh.open(conf)
     except zenoh.ZError as exc:
         raise UserError(f"cannot start the router on {listen}: {str(exc).splitlines()[0]}") from None
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    signal.signal(signal.SIGINT, lambda *a: stop.set())
+    stop = stop_on_signals()
     print(f"router={','.join(listen)} zid={session.zid()}", flush=True)
     try:
         while not stop.wait(0.5):

@@ -3,6 +3,7 @@ of the others must not make their states late stragglers; a silent (frozen) agen
 
 from __future__ import annotations
 
+import signal
 import threading
 import time
 
@@ -10,9 +11,11 @@ import numpy as np
 import pytest
 
 from agent.protocol import keys
+from agent.protocol.stopping import stop_on_signals
 from agent.protocol.wire import encode_state
 from fluidswarm.recording import steps
 from fluidswarm.recording.reader import load_run
+from fluidswarm.recording.recorder import record
 from fluidswarm.recording.writer import RunWriter
 
 RUN = "r1"
@@ -127,10 +130,6 @@ def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
 def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
     """The recorder process's SIGTERM (the launcher stops it at the run's end) arrives wherever its main thread
     is; here, inside the write of step 5. The step being written and the ones after it must all be in the file."""
-    import signal
-
-    from fluidswarm.recording import recorder as process
-
     rec, clock, path = recorder
     saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     write_states = rec.writer.write_states
@@ -142,11 +141,11 @@ def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
 
     rec.writer.write_states = write_and_be_stopped
     try:
-        stop = process.stop_on_signals()
+        stop = stop_on_signals()
         for k in range(10):
             for j in range(3):
                 post(rec, j, k)
-        process.record(rec, stop, poll=0.0)
+        record(rec, stop, poll=0.0)
         assert stop.is_set()
         rec.finish(quiet=0.01)
     finally:

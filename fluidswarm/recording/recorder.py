@@ -28,25 +28,17 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.errors import UserError
 from agent.protocol.session import client_config
+from agent.protocol.stopping import stop_on_signals
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.live import LiveServer, parse_address
 from fluidswarm.recording.steps import Recorder
 from fluidswarm.recording.writer import RunWriter
 
-def stop_on_signals() -> threading.Event:
-    """SIGTERM and SIGINT set the returned flag and do nothing else. Raising from the handler instead (this
-    process until 2026-11-27) could land inside Recorder._write_step after it had taken a step's states and
-    before it wrote them: the whole step was lost (CI: sequence_cylindrical_pinching's MCAP lacked step 799 of
-    800, every other step complete)."""
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: stop.set())
-    signal.signal(signal.SIGINT, lambda *a: stop.set())
-    return stop
-
 
 def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2) -> None:
-    """Take the run's messages until `stop` is set (within `poll` s); what is being written then is written whole."""
+    """Take the run's messages until `stop` (agent/protocol/stopping.py) is set, within `poll` s; what is being
+    written then is written whole."""
     while not stop.is_set():
         recorder.pump(poll)
 

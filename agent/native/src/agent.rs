@@ -105,9 +105,8 @@ pub struct Agent {
     residents: HashMap<u32, Vec<(i64, i64)>>,
     /// agent -> the subscription to its state key
     state_subs: HashMap<u32, StateSub>,
-    /// our state key, declared once (states are put on it), and the subscriber that declares it to the router
+    /// our state key, declared once (states are put on it)
     state_key: Option<KeyExpr<'static>>,
-    own_key_sub: Option<Subscriber<()>>,
     /// our `where` token and its cell
     where_token: Option<((i64, i64), zenoh::liveliness::LivelinessToken)>,
     _fixed: Vec<Subscriber<()>>,
@@ -170,7 +169,6 @@ impl Agent {
             residents: HashMap::new(),
             state_subs: HashMap::new(),
             state_key: None,
-            own_key_sub: None,
             where_token: None,
             _fixed: Vec::new(),
             _tokens: Vec::new(),

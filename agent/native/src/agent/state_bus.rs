@@ -76,7 +76,6 @@ impl Agent {
 
     /// Undeclare every state subscription and watched block (the end of the run).
     pub(super) fn close_state_bus(&mut self) {
-        self.own_key_sub = None;
         self.cell_subs.clear();
         for sub in self.state_subs.values_mut() {
             sub.close(&self.session);
@@ -277,7 +276,7 @@ impl Agent {
         }
         let key = self.session.declare_keyexpr(keys::state_key(&self.spec.run, self.spec.id)).wait().map_err(zerr)?;
         let sub = self.session.declare_subscriber(key.clone()).callback(|_| {}).wait().map_err(zerr)?;
-        self.own_key_sub = Some(sub);
+        self._fixed.push(sub); // held for the run, like the ctl and command subscribers
         self.state_key = Some(key);
         Ok(())
     }
