@@ -29,6 +29,7 @@ from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
 from agent.recorder_process import RecorderProcess
+from agent.relay import StateRelay
 from agent.router_host import RouterHost
 from agent.sph.particle import Control, initial_state
 from agent.supervisor import Supervisor, Swarm
@@ -91,8 +92,11 @@ class Launcher:
         except BaseException:
             self.router.close()
             raise
-        self.pacer = Pacer(self.swarm, agent_timeout)
-        self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet)
+        self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
+        # Under per-process rights agents put states on their id keys; the relay puts them on the cells
+        self.relay = StateRelay(self.session, self.run) if self.access.state_key_ids else None
+        self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet,
+                                        self.access.state_key_ids)
         self.closed = False
 
     # the run's progress (agent/pacing.py)
@@ -139,6 +143,8 @@ class Launcher:
                          timeout=self.agent_timeout, state_key_ids=self.access.state_key_ids, **extra)
 
     def spawn(self, spec: AgentSpec):
+        if self.relay is not None:
+            self.relay.add(spec.id, spec.params["h"])
         return self.supervisor.spawn(spec)
 
     def spawn_joiners(self, count: int, centre, control: Control, params, steps: int, **extra) -> list[int]:
@@ -168,6 +174,8 @@ class Launcher:
         self.pacer.stop()
         codes = self.supervisor.stop_all()
         self.recorder.stop()
+        if self.relay is not None:
+            self.relay.close()
         self.supervisor.undeclare()
         self.router.close()
         return codes

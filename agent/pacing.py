@@ -30,8 +30,9 @@ class Pacer:
     """`swarm` (agent/supervisor.py Swarm): its alive agents and lost ones; `agent_timeout` [s]: an agent
     silent this long (frozen) does not hold the clock back."""
 
-    def __init__(self, swarm, agent_timeout: float, clock_period: float = CLOCK_PERIOD):
+    def __init__(self, swarm, agent_timeout: float, id_keys: bool, clock_period: float = CLOCK_PERIOD):
         self.swarm, self.agent_timeout, self.clock_period = swarm, agent_timeout, clock_period
+        self.id_keys = id_keys  # states on the agents' id keys (per-process rights), else on cell keys
         self.session, self.run = swarm.session, swarm.run
         self.step_times: dict[int, float] = {}  # step -> wall time its first state was seen
         self.max_step = -1
@@ -48,7 +49,8 @@ class Pacer:
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
-        self._states = self.session.declare_subscriber(keys.state_all_expr(self.run), zenoh.handlers.RingChannel(1 << 16))
+        self._states = self.session.declare_subscriber(keys.state_observed_expr(self.run, self.id_keys),
+                                                     zenoh.handlers.RingChannel(1 << 16))
         threading.Thread(target=self._clock, daemon=True).start()
 
     def stop(self) -> None:

@@ -16,8 +16,9 @@ class RecorderProcess:
     """The recorder of run `run`, connected to `endpoint` with the credentials in `env` (docs/security.md);
     `quiet`: its output goes nowhere."""
 
-    def __init__(self, run: str, endpoint: str, session, env: dict, quiet: bool = True):
+    def __init__(self, run: str, endpoint: str, session, env: dict, quiet: bool = True, id_keys: bool = False):
         self.run, self.endpoint, self.session, self.env, self.quiet = run, endpoint, session, env, quiet
+        self.id_keys = id_keys  # the agents put states on their id keys (per-process rights)
         self.proc: subprocess.Popen | None = None
 
     def start(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "", image: str = "",
@@ -29,7 +30,8 @@ class RecorderProcess:
         meta.setdefault("run", self.run)
         out = subprocess.DEVNULL if self.quiet else None
         cmd = [sys.executable, "-m", "fluidswarm.recording.recorder", "--connect", self.endpoint, "--run", self.run,
-               "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta)]
+               "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta),
+               "--state-keys", "id" if self.id_keys else "cell"]
         if target:
             cmd += ["--target", target]
         if image:

@@ -46,7 +46,7 @@ def relayed(session: RecordingSession) -> list[int]:
 def test_a_lost_agent_is_relayed_after_the_grace_and_a_finished_one_never():
     session = RecordingSession()
     swarm = Swarm(run="r", endpoint="tcp/127.0.0.1:1", session=session)  # type: ignore[arg-type]
-    pacer = pacing.Pacer(swarm, agent_timeout=2.0, clock_period=0.01)
+    pacer = pacing.Pacer(swarm, agent_timeout=2.0, id_keys=False, clock_period=0.01)
     lost_at = time.monotonic()
     with swarm.changed:
         swarm.gone += [(5, lost_at), (6, lost_at)]

@@ -234,6 +234,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
         assert la.access.state_key_ids
         observer = la.session.declare_subscriber(f"{keys.PREFIX}/{la.run}/**", observe)
         env = dict(os.environ, **la.access.env_for_agent(16))
+        la.relay.add(16, setup.params.h)  # a compromised agent of this launcher's: its states are relayed
         rogue = subprocess.Popen([sys.executable, "-c", ROGUE_AGENT, la.endpoint, la.run], env=env,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
@@ -242,6 +243,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
             time.sleep(0.3)
             observer.undeclare()
             seen_during_run = dict(seen)
+            relay_rejected = dict(la.relay.rejected)
         finally:
             r_out, r_err = _stop(rogue)
     sent = json.loads(r_out.strip().splitlines()[-1])
@@ -249,16 +251,20 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     for r in res.finals.values():
         for k, v in r.rejected.items():
             rejected[k] = rejected.get(k, 0) + v
-    print(f"rogue sent {sent}; the router let through {seen_during_run}; agents rejected {rejected}")
+    print(f"rogue sent {sent}; the router let through {seen_during_run}; the relay rejected {relay_rejected}; "
+          f"agents rejected {rejected}")
     ref = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     got = np.array([res.finals[i].state for i in setup.ids])
     assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10 and sent["wildcard"] > 100
     # refused by the router: none reached even its own session
     assert seen_during_run["forged_other_ids"] == 0 and seen_during_run["ctl"] == 0 and seen_during_run["command"] == 0
-    # under its own id the router lets it speak (it may lie about itself), and so on wildcard keys (its deny
-    # rules name key patterns, not every wildcard): the agents see the record names someone else, or the key
-    # no one, and drop it; they ignore ctl on a wildcard key (they would stop, end or jump the clock)
-    assert seen_during_run["forged_own_key"] > 0 and seen_during_run["wildcard"] > 0 and rejected.get("key", 0) > 0
+    # under its own id the router lets it speak (it may lie about itself): a record naming someone else under
+    # its key is dropped by the launcher's relay, which puts only records naming their key's agent on the cell
+    # keys (agents hear states there only); wildcard keys pass the router (its deny rules name key patterns,
+    # not every wildcard) and the agents take states only from their exact cell keys and ignore ctl on a
+    # wildcard key (they would stop, end or jump the clock)
+    assert seen_during_run["forged_own_key"] > 0 and relay_rejected.get("id", 0) > 0
+    assert seen_during_run["wildcard"] > 0 and rejected.get("key", 0) > 0
     assert all(r.status == "done" for r in res.finals.values()) and len(res.finals) == 16
     assert np.abs(got[:, [X, Y]] - ref[:, [X, Y]]).max() <= 1e-9
 
@@ -306,7 +312,7 @@ def test_users_file_errors_are_one_line_naming_the_line(tmp_path):
 
 def test_a_state_is_taken_only_from_its_senders_key_or_an_exact_cell_key():
     # the recorder and the launcher's pacer take a state record only on a key that vouches for it (the Rust
-    # agent's twins, keys.rs state_sender/where_of, are tested against the same strings)
+    # agent takes states only on the exact cell keys it subscribed to: cell_bus.rs)
     run = "r"
     assert keys.state_key(run, 7) == "fluidswarm/r/state/bdfgikmoqsuwy"
     assert keys.state_key_vouches(keys.state_key(run, 7), 7) and keys.state_key_vouches(keys.cell_key(run, -1, 2), 7)
@@ -314,10 +320,9 @@ def test_a_state_is_taken_only_from_its_senders_key_or_an_exact_cell_key():
                 f"fluidswarm/{run}/state/**", "fluidswarm/**", keys.cell_key(run, -1, 2) + "/x",
                 f"fluidswarm/{run}/state/01/2", keys.event_key(run, 7)):
         assert not keys.state_key_vouches(key, 7), key
-    # where tokens: the block is the cell's floor division by BLOCK, as keys.rs writes it
-    assert keys.where_key(run, -1, 5, 7) == "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy"
-    assert keys.where_expr(run, -1, 1) == "fluidswarm/r/where/-1/1/**"
-    assert keys.block_of(-5, 4) == (-2, 1) and keys.block_of(3, -1) == (0, -1)
+    # observers take each state once: from the id keys under per-process rights (not the relay's copies)
+    assert keys.state_observed_expr(run, True) == "fluidswarm/r/state/*"
+    assert keys.state_observed_expr(run, False) == "fluidswarm/r/state/*/*"
 
 
 def test_an_id_chunk_holds_none_of_the_letters_another_ids_rules_deny():
@@ -341,8 +346,7 @@ RUN = "R"
 RIGHTS = {
     "agent-5": [("put", keys.state_key(RUN, 5), True), ("put", keys.event_key(RUN, 5), True),
                 ("put", keys.final_key(RUN, 5), True), ("token", keys.alive_key(RUN, 5), True),
-                ("token", keys.where_key(RUN, 1, -2, 5), True), ("token", keys.where_key(RUN, 1, -2, 4), False),
-                ("put", keys.where_key(RUN, 1, -2, 5), False), ("put", keys.state_key(RUN, 5) + "/1", False),
+                ("put", keys.state_key(RUN, 5) + "/1", False),
                 ("put", keys.state_key(RUN, 4), False), ("put", keys.state_key(RUN, 7), False),
                 ("put", keys.state_key(RUN, 5 + 4096), False), ("put", keys.cell_key(RUN, 1, -2), False),
                 ("put", keys.event_key(RUN, 6), False), ("put", keys.final_key(RUN, 13), False),
@@ -352,10 +356,11 @@ RIGHTS = {
                 ("delete", keys.event_key(RUN, 5), False)],
     "coordinator": [("put", keys.command_key(RUN), True), ("token", f"fluidswarm/{RUN}/coordinator", True),
                     ("put", keys.ctl_key(RUN, "stop"), False), ("put", keys.state_key(RUN, 5), False),
-                    ("token", f"fluidswarm/{RUN}/recorder", False), ("token", keys.where_key(RUN, 1, -2, 5), False)],
+                    ("token", f"fluidswarm/{RUN}/recorder", False), ("put", keys.cell_key(RUN, 1, -2), False)],
     "recorder": [("token", f"fluidswarm/{RUN}/recorder", True), ("put", keys.command_key(RUN), False),
                  ("put", keys.event_key(RUN, 5), False), ("token", keys.alive_key(RUN, 4), False)],
-    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.state_key(RUN, 5), False),
+    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.cell_key(RUN, 1, -2), True),
+                 ("put", keys.state_key(RUN, 5), False), ("put", keys.cell_key(RUN, 1, -2) + "/x", False),
                  ("put", keys.command_key(RUN), False), ("token", keys.alive_key(RUN, 4), False)],
 }
 

@@ -4,10 +4,11 @@ Every process of a run authenticates to its router with its own user name and pa
 the router's access control (Zenoh ACL: default allow, ingress deny rules for everything a role must not do;
 see acl_config) lets each user do only its role's part of the protocol (docs/protocol.md):
 
-    agent-<id>    put its own state (`state/<id>`), event and final keys, its own alive and `where` tokens,
-                  query its own final key; subscribe to states, ctl, the command and liveliness
-    launcher      put ctl/*; subscribe to states, events, finals, alive tokens; query liveliness (a launcher
-                  that connects to another router; the embedded router's own session is not a client)
+    agent-<id>    put its own state (`state/<id>`), event and final keys, its own alive token, query its own
+                  final key; subscribe to states, ctl and the command
+    launcher      put ctl/* and, its relay, cell keys (`state/<cx>/<cy>`); subscribe to states, events, finals,
+                  alive tokens; query liveliness (a launcher that connects to another router; the embedded
+                  router's own session is not a client)
     coordinator   put the command, its liveliness token; subscribe to ctl
     recorder      subscribe only (states, events, finals, command, alive tokens); its liveliness token
     router        another host's router: everything (it forwards its own clients, which it checks itself)

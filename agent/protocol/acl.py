@@ -23,7 +23,7 @@ _AGENT_RE = re.compile(r"^agent-(0|[1-9][0-9]{0,9})$")
 _ANY_RUN = f"{keys.PREFIX}/*"
 _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
-_KINDS = ("state", "where", "event", "final", "alive", "ctl", "command", "recorder", "coordinator")
+_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator")
 
 
 def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
@@ -56,11 +56,11 @@ def _agent_ids(users: list[str]) -> list[int]:
 def acl_config(users: list[str]) -> dict:
     """Zenoh's `access_control` section for these users (roles above). Default allow; ingress deny rules.
 
-    An agent may put its state, event and final keys, declare its alive and `where` tokens, query (the flush
-    on its own final key), subscribe and subscribe to liveliness (the `where` tokens around it); it may not
-    put or declare another agent's keys (the bit rules), ctl, the command, state keys deeper than
-    `state/<id>` or the recorder's or coordinator's tokens, and it may never delete, reply, declare a
-    queryable or query liveliness. The other roles likewise
+    An agent may put its state, event and final keys, declare its alive token, query (the flush on its own
+    final key) and subscribe; it may not put or declare another agent's keys (the bit rules), ctl, the
+    command, cell keys (`state/<cx>/<cy>`: only the launcher's relay puts there) or the recorder's or
+    coordinator's tokens, and it may never delete, reply, declare a queryable or query liveliness. The other
+    roles likewise
     (docs/security.md has the table); the `router` role (another host's router) may do everything.
     """
     never = ["delete", "reply", "declare_queryable"]
@@ -70,9 +70,10 @@ def acl_config(users: list[str]) -> dict:
         # agents
         _deny("agent-never", ["liveliness_query"], _EVERYTHING),
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
-        _deny("agent-token", ["liveliness_token"], _kinds_but("alive", "where")),
-        # launcher (multi-host: a launcher that connects to a router)
-        _deny("launcher-put", ["put"], _kinds_but("ctl")),
+        _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
+        # launcher (multi-host: a launcher that connects to a router): ctl, and its relay's puts on cell keys
+        # (agent/relay.py), never an agent's id key
+        _deny("launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator
         _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),

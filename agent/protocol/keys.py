@@ -1,8 +1,8 @@
 """Zenoh key expressions of a run: defined once here, documented in docs/protocol.md (protocol v1).
 
-    fluidswarm/<run>/state/<cx>/<cy>        a state published in cell (cx, cy) (the record names the agent)
-    fluidswarm/<run>/state/<id>             instead, under per-process rights (acl): agent id's states
-    fluidswarm/<run>/where/<bx>/<by>/<cx>/<cy>/<id>  with those: liveliness token, agent id is in cell (cx, cy)
+    fluidswarm/<run>/state/<cx>/<cy>        a state of an agent in cell (cx, cy) (the record names the agent)
+    fluidswarm/<run>/state/<id>             under per-process rights (acl): agent id puts its states here, the
+                                            launcher's relay puts them on their cell's key (agent/relay.py)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
     fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
@@ -64,9 +64,6 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
     return math.floor(x / cell), math.floor(y / cell)
 
 
-BLOCK = 4  # side of a discovery block in cells: agents watch `where` tokens per block (docs/protocol.md)
-
-
 def cell_key(run: str, cx: int, cy: int) -> str:
     """A state published in cell (cx, cy), the id only in the record: the layout without per-process rights,
     one exact key per cell, the cheapest for zenoh (docs/protocol.md)."""
@@ -97,24 +94,11 @@ def state_key_vouches(key: str, record_id: int) -> bool:
     return state_sender(key) == record_id
 
 
-def block_of(cx: int, cy: int) -> tuple[int, int]:
-    return cx // BLOCK, cy // BLOCK
-
-
-def where_key(run: str, cx: int, cy: int, agent_id: int) -> str:
-    """Agent `agent_id`'s liveliness token while it is in cell (cx, cy)."""
-    bx, by = block_of(cx, cy)
-    return f"{PREFIX}/{run}/where/{bx}/{by}/{cx}/{cy}/{id_chunk(agent_id)}"
-
-
-def where_expr(run: str, bx: int, by: int) -> str:
-    """Every `where` token of block (bx, by): what an agent's liveliness subscriber for the block takes."""
-    return f"{PREFIX}/{run}/where/{bx}/{by}/**"
-
-
-def state_all_expr(run: str) -> str:
-    """Every state message of the run: for passive observers (recorder, launcher), never for agents."""
-    return f"{PREFIX}/{run}/state/**"
+def state_observed_expr(run: str, id_keys: bool) -> str:
+    """Where passive observers (recorder, launcher) take every state of the run once: from the agents' id keys
+    under per-process rights (the relay's copies on the cell keys would be the same states again), else from
+    the cell keys. Never for agents."""
+    return f"{PREFIX}/{run}/state/*" if id_keys else f"{PREFIX}/{run}/state/*/*"
 
 
 def alive_key(run: str, agent_id: int) -> str:

@@ -60,8 +60,8 @@ class AgentSpec:
     drop_out       fraction [0, 1) of this agent's outgoing state messages to drop (failure injection)
     secret         hex key of the run's command signatures (HMAC-SHA256), never sent on the bus
     join           True for a late joiner: adopt the swarm's current step instead of waiting for start
-    state_key_ids  the id layout (a router with per-process rights): states on state/<id>, neighbours found by
-                   `where` tokens, instead of one key per cell (docs/protocol.md)
+    state_key_ids  a router with per-process rights: the agent puts its states on state/<id> (the launcher's
+                   relay puts them on the cell keys), instead of on its cell's key (docs/protocol.md)
     mode           "lockstep" (wait for every expected neighbour's state of the same step; reproducible) or
                    "async" (step on the agent's own clock with the latest neighbour states; docs/protocol.md)
     rate           steps/s an async agent aims for (its own clock); a late agent does not race to catch up

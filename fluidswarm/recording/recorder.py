@@ -53,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
+    ap.add_argument("--state-keys", choices=("id", "cell"), default="cell",
+                    help="where the run's states are taken from: the agents' id keys (per-process rights) or cells")
     args = ap.parse_args(argv)
     if not keys.valid_run_name(args.run):
         print(f"fluidswarm record: error: --run {args.run!r} is not a valid run name", file=sys.stderr)
@@ -89,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
         subs = [
             # On zenoh's receiving thread (indirect=False): the callback only enqueues, and a Python thread
             # hand-over per state (N per step) was most of this process's CPU at N = 300.
-            session.declare_subscriber(keys.state_all_expr(args.run), zenoh.handlers.Callback(recorder.on_state, indirect=False)),
+            session.declare_subscriber(keys.state_observed_expr(args.run, args.state_keys == "id"),
+                                       zenoh.handlers.Callback(recorder.on_state, indirect=False)),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),
             # Direct too: an agent's alive token comes before its first state on the link, and must be queued

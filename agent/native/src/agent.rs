@@ -12,7 +12,8 @@
 //! The parts, one job each (all `impl Agent` blocks over the struct defined here):
 //! - inbox: the queue the Zenoh callbacks fill, the bell that wakes the main thread, ctl/command subscribers
 //! - receive: what each queued message does to the neighbour table (states, ctl, commands)
-//! - state_bus: the state keys: cell subscribers, sender keys, the publisher key, the state put
+//! - state_bus: where the state goes (our id key or our cell's key) and the state put
+//! - cell_bus: the cells we hear states on
 //! - wait: the expected set of a lockstep step and the wait for it
 //! - step: the lockstep and async step loops (pacing, advancing the particle)
 //! - lifecycle: start-up (barrier, join), the run, its end
@@ -42,7 +43,6 @@ use crate::spec::AgentSpec;
 use crate::sph::{self, State};
 
 use inbox::Shared;
-use state_bus::StateSub;
 pub use report::peak_rss_mb;
 pub use state_bus::Tuning;
 
@@ -87,32 +87,20 @@ pub struct Agent {
     cell: f64,
     r_sub: f64,
     r_keep: f64,
-    r_watch: f64,
-    /// R_sub and R_keep measured to a `where` token's cell: widened by its slack
-    r_sub_cell: f64,
-    r_keep_cell: f64,
     state: State,
     controller: Option<CommandFollower>,
     shared: Arc<Shared>,
     session: Session,
-    /// cell layout: per watched cell, its subscriber and declared key (undeclared with it)
+    /// per watched cell, its subscriber and declared key (undeclared with it)
     cell_subs: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
-    /// cell layout: our current cell and its declared key
+    /// without per-process rights: our current cell and its declared key
     cell_publisher: Option<((i64, i64), KeyExpr<'static>)>,
-    /// the blocks whose `where` tokens we watch: their liveliness subscribers (state_bus)
-    blocks: HashMap<(i64, i64), Subscriber<()>>,
-    /// agent -> the cells of its `where` tokens heard in the watched blocks (normally one)
-    residents: HashMap<u32, Vec<(i64, i64)>>,
-    /// agent -> the subscription to its state key
-    state_subs: HashMap<u32, StateSub>,
-    /// our state key, declared once (states are put on it)
+    /// under per-process rights: our state key, declared once (states are put on it)
     state_key: Option<KeyExpr<'static>>,
-    /// our `where` token and its cell
-    where_token: Option<((i64, i64), zenoh::liveliness::LivelinessToken)>,
     _fixed: Vec<Subscriber<()>>,
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
     buffer: BTreeMap<u32, BTreeMap<u32, State>>,
-    /// id -> (step, x, y) of its latest sighting; step -1 with NaN position: known from its born token
+    /// id -> (step, x, y) of its latest sighting; step -1 with NaN position: a step-0 neighbour from the spec, not yet heard
     latest: HashMap<u32, (i64, f64, f64)>,
     heard_at: HashMap<u32, Instant>,
     dead: HashSet<u32>,
@@ -153,11 +141,6 @@ impl Agent {
             cell,
             r_sub,
             r_keep: r_sub + 0.5 * cell,
-            // where tokens are watched 10 steps of our own motion farther out than the cells whose agents we
-            // subscribe to: a cell that comes within R_sub as we move has had its tokens delivered long before
-            r_watch: r_sub + (0.5 + state_bus::WHERE_SLACK) * cell + 10.0 * d,
-            r_sub_cell: r_sub + state_bus::WHERE_SLACK * cell,
-            r_keep_cell: r_sub + (0.5 + state_bus::WHERE_SLACK) * cell,
             params,
             state,
             controller,
@@ -165,11 +148,7 @@ impl Agent {
             session,
             cell_subs: HashMap::new(),
             cell_publisher: None,
-            blocks: HashMap::new(),
-            residents: HashMap::new(),
-            state_subs: HashMap::new(),
             state_key: None,
-            where_token: None,
             _fixed: Vec::new(),
             _tokens: Vec::new(),
             buffer: BTreeMap::new(),

@@ -38,18 +38,15 @@ pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
     ((x / cell).floor() as i64, (y / cell).floor() as i64)
 }
 
-/// Side of a discovery block, in cells: agents watch `where` tokens per block of BLOCK x BLOCK cells, so the
-/// router holds a few liveliness interests per agent (each token change is matched against all of them).
-pub const BLOCK: i64 = 4;
-
-/// The key of agent `id`'s states: one exact key for its whole life, carrying its id, so the router's access
-/// control lets each agent publish only its own states and zenoh routes every state by a cached, exact route.
+/// The key an agent puts its states on under per-process rights: one exact key for its whole life, carrying
+/// its id, so the router's access control lets each agent publish only its own states (the launcher's relay
+/// puts them again on their cell's key, agent/relay.py).
 pub fn state_key(run: &str, id: u32) -> String {
     format!("{PREFIX}/{run}/state/{}", id_chunk(id))
 }
 
-/// The key of a state published in cell `c` in the cell layout (access levels without per-process rights):
-/// one exact key per cell, the id only in the record.
+/// The key of the states of the agents in cell `c`, the id only in the record: what every agent hears on.
+/// Put by the agents themselves without per-process rights, by the launcher's relay under them.
 pub fn cell_key(run: &str, c: (i64, i64)) -> String {
     format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
 }
@@ -58,40 +55,6 @@ pub fn cell_key(run: &str, c: (i64, i64)) -> String {
 /// parsers below take their chunks from it; no allocation: they run on every received message).
 fn after_kind<'a>(run: &str, kind: &str, key: &'a str) -> Option<&'a str> {
     key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix('/')?.strip_prefix(kind)?.strip_prefix('/')
-}
-
-/// The block of a cell (floor division: cell -1 is in block -1).
-pub fn block_of(c: (i64, i64)) -> (i64, i64) {
-    (c.0.div_euclid(BLOCK), c.1.div_euclid(BLOCK))
-}
-
-/// Agent `id`'s liveliness token while it is in cell `c`: `fluidswarm/<run>/where/<bx>/<by>/<cx>/<cy>/<id>`.
-pub fn where_key(run: &str, c: (i64, i64), id: u32) -> String {
-    let b = block_of(c);
-    format!("{PREFIX}/{run}/where/{}/{}/{}/{}/{}", b.0, b.1, c.0, c.1, id_chunk(id))
-}
-
-/// What an agent's liveliness subscriber for block `b` takes: every `where` token in it.
-pub fn where_expr(run: &str, b: (i64, i64)) -> String {
-    format!("{PREFIX}/{run}/where/{}/{}/**", b.0, b.1)
-}
-
-/// (cell, id) of exactly a `where_key`, None for anything else (a wildcard token, a cell outside its block).
-pub fn where_of(run: &str, key: &str) -> Option<((i64, i64), u32)> {
-    let rest = after_kind(run, "where", key)?;
-    let mut chunks = rest.split('/');
-    let mut int = || chunks.next().and_then(parse_int);
-    let (bx, by, cx, cy) = (int()?, int()?, int()?, int()?);
-    let id = id_of_chunk(chunks.next()?)?;
-    (chunks.next().is_none() && block_of((cx, cy)) == (bx, by)).then_some(((cx, cy), id))
-}
-
-/// A decimal integer as keys.py writes it (no sign but '-', no leading zeros, at most 10 digits).
-fn parse_int(s: &str) -> Option<i64> {
-    let digits = s.strip_prefix('-').unwrap_or(s);
-    let canonical = !digits.is_empty() && digits.len() <= 10 && digits.bytes().all(|b| b.is_ascii_digit())
-        && (digits == "0" || !digits.starts_with('0')) && s != "-0";
-    if canonical { s.parse().ok() } else { None }
 }
 
 pub fn alive_key(run: &str, id: u32) -> String {
@@ -139,8 +102,7 @@ pub fn cell_distance(x: f64, y: f64, c: (i64, i64), cell: f64) -> f64 {
     cell_distance2(x, y, c, cell).sqrt()
 }
 
-/// Cells of side `cell` that intersect the disc of `radius` around (x, y); with `cell` = BLOCK cells, the
-/// blocks an agent watches.
+/// Cells of side `cell` that intersect the disc of `radius` around (x, y).
 pub fn covering_cells(x: f64, y: f64, radius: f64, cell: f64) -> Vec<(i64, i64)> {
     let cx0 = ((x - radius) / cell).floor() as i64;
     let cx1 = ((x + radius) / cell).floor() as i64;
@@ -168,14 +130,6 @@ mod tests {
         assert_eq!(state_key("r", 7), "fluidswarm/r/state/bdfgikmoqsuwy");
         assert_eq!(alive_key("r", 12), "fluidswarm/r/alive/acfhikmoqsuwy");
         assert_eq!(cell_key("r", (-1, 2)), "fluidswarm/r/state/-1/2");
-        assert_eq!(where_key("r", (-1, 5), 7), "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy");
-        assert_eq!(where_expr("r", (-1, 1)), "fluidswarm/r/where/-1/1/**");
-        assert_eq!(where_of("r", &where_key("r", (-1, 5), 7)), Some(((-1, 5), 7)));
-        assert_eq!(where_of("r", "fluidswarm/r/where/0/1/-1/5/bdfgikmoqsuwy"), None);
-        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/05/bdfgikmoqsuwy"), None);
-        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/5/*"), None);
-        assert_eq!(where_of("r", "fluidswarm/r/where/**"), None);
-        assert_eq!(where_of("r", "fluidswarm/r/where/-1/1/-1/5/bdfgikmoqsuwy/x"), None);
         assert_eq!(id_from_key(&alive_key("r", 12)), Some(12));
         assert_eq!(id_from_key("fluidswarm/r/alive/12"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/acegikmoqsuwz"), Some(4096));

@@ -30,9 +30,9 @@ pub struct AgentSpec {
     pub drop_out: f64,
     pub secret: String,
     pub join: bool,
-    /// The id layout of the state bus (access level `acl`: the router lets each agent publish only its own
-    /// keys): states on `state/<id>`, neighbours found by `where` tokens; else one key per cell
-    /// (docs/protocol.md, docs/security.md).
+    /// Access level `acl` (the router lets each agent publish only its own keys): states go on `state/<id>`,
+    /// the launcher's relay puts them on the cell keys; else on the cell's key (docs/protocol.md,
+    /// docs/security.md).
     pub state_key_ids: bool,
     pub mode: Mode,
     pub rate: f64,

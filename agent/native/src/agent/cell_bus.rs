@@ -1,7 +1,8 @@
-//! The cell layout of the state bus, at access levels without per-process rights (`auth`, `none`;
-//! docs/protocol.md): one exact key per cell, `state/<cx>/<cy>`, the id only in the record. An agent subscribes
-//! to every cell within R_sub and puts its state on its own cell's key. Cheapest for zenoh 1.10 (one cached
-//! route per cell, no token traffic) but the router cannot tell who published a state (docs/security.md).
+//! The cells an agent hears states on (docs/protocol.md): one exact key per cell, `state/<cx>/<cy>`, the id
+//! only in the record. An agent subscribes to every cell within R_sub. Cheapest for zenoh 1.10: one cached
+//! route per cell, and nothing to learn about who is near (the cells are where they are). Who may put on a
+//! cell key: every agent at access levels without per-process rights; only the launcher's relay under them
+//! (state_bus.rs).
 
 use std::sync::Arc;
 
@@ -28,12 +29,18 @@ impl Agent {
         for c in keys::covering_cells(x, y, self.r_sub, self.cell) {
             if !self.cell_subs.contains_key(&c) {
                 let shared = Arc::clone(&self.shared);
+                let exact = keys::cell_key(&self.spec.run, c);
                 // Declared first: the router then sends the cell's states with our numeric id for the key.
-                let key = self.session.declare_keyexpr(keys::cell_key(&self.spec.run, c)).wait().map_err(zerr)?;
+                let key = self.session.declare_keyexpr(exact.clone()).wait().map_err(zerr)?;
                 let sub = self
                     .session
                     .declare_subscriber(key.clone())
-                    .callback(move |sample| shared.push_state(sample.payload().to_bytes().into_owned(), None))
+                    .callback(move |sample| {
+                        // A put on a wildcard key (`…/state/**`) reaches this subscriber too, and the router's
+                        // deny rules cannot name every wildcard (docs/security.md): only the exact key vouches.
+                        let on_key = sample.key_expr().as_str() == exact;
+                        shared.push_state(sample.payload().to_bytes().into_owned(), on_key)
+                    })
                     .wait()
                     .map_err(zerr)?;
                 self.cell_subs.insert(c, (sub, key));
@@ -42,7 +49,8 @@ impl Agent {
         Ok(())
     }
 
-    /// The declared key of our current cell (a numeric id on the link), re-declared on entering a cell.
+    /// The declared key of our current cell (a numeric id on the link), re-declared on entering a cell: where
+    /// we put our state without per-process rights.
     pub(super) fn cell_publish_key(&mut self) -> Option<zenoh::key_expr::KeyExpr<'static>> {
         let c = keys::cell_of(self.state[X], self.state[Y], self.cell);
         if self.cell_publisher.as_ref().map(|(pc, _)| *pc) != Some(c) {

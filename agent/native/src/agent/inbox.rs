@@ -13,10 +13,8 @@ use crate::keys;
 use crate::wire;
 
 pub(super) enum Msg {
-    /// a state record and the agent id of its key (None: not exactly a state key), which must be the record's
-    State(Vec<u8>, Option<u32>),
-    /// a `where` token of agent j in cell c appeared (true) or went (false)
-    Where((i64, i64), u32, bool),
+    /// a state record, and whether it came on exactly the cell key we subscribed to (not a wildcard put)
+    State(Vec<u8>, bool),
     Gone(u32),
     Ctl(String, Vec<u8>),
     Command(Vec<u8>),
@@ -52,12 +50,7 @@ impl Shared {
         }
     }
 
-    /// Queue a message the main thread handles at its next wake-up (each step has at least one).
-    pub(super) fn push_quiet(&self, msg: Msg) {
-        self.inbox.lock().unwrap_or_else(|e| e.into_inner()).queue.push_back(msg);
-    }
-
-    pub(super) fn push_state(&self, data: Vec<u8>, key_id: Option<u32>) {
+    pub(super) fn push_state(&self, data: Vec<u8>, on_key: bool) {
         let mut inbox = self.inbox.lock().unwrap_or_else(|e| e.into_inner());
         let mut ring = inbox.wake_on_state;
         if !inbox.awaited.is_empty() {
@@ -68,7 +61,7 @@ impl Shared {
                 }
             }
         }
-        inbox.queue.push_back(Msg::State(data, key_id));
+        inbox.queue.push_back(Msg::State(data, on_key));
         if ring {
             inbox.rung = true;
             self.bell.notify_one();

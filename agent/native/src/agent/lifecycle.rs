@@ -45,7 +45,6 @@ impl Agent {
     }
 
     fn run_inner(&mut self) -> Result<(), Halt> {
-        self.seed_residents();
         let declared = self.declare_fixed().and_then(|_| self.declare_state_key()).and_then(|_| self.update_subscriptions());
         if let Err(e) = declared {
             eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
@@ -62,7 +61,7 @@ impl Agent {
             }
         }
         // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
-        // agent's state subscriptions and `where` token are declared and no step-0 state is missed.
+        // agent's state subscriptions are declared and no step-0 state is missed.
         match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
             Ok(t) => self._tokens.push(t),
             Err(e) => {
@@ -88,20 +87,6 @@ impl Agent {
         match self.spec.mode {
             Mode::Lockstep => self.run_lockstep(),
             Mode::Async => self.run_async(),
-        }
-    }
-
-    /// The agents the launcher placed nearby (the spec's `neighbours`) are residents of their initial cells
-    /// before their `where` tokens arrive: the first update_subscriptions subscribes to those within R_sub
-    /// before our alive token, so no step-0 state is missed however late the tokens come.
-    fn seed_residents(&mut self) {
-        if !self.spec.state_key_ids {
-            return; // the cell layout finds its step-0 neighbours' states on the cell keys
-        }
-        for &(j, x, y) in &self.spec.neighbours {
-            if j != self.spec.id {
-                self.residents.entry(j).or_default().push(keys::cell_of(x, y, self.cell));
-            }
         }
     }
 
@@ -146,9 +131,9 @@ impl Agent {
                         return Err(Halt::Stop);
                     }
                 }
-                Some(Msg::State(data, key_id)) => {
+                Some(Msg::State(data, on_key)) => {
                     if let Ok(rec) = wire::decode_state(&data) {
-                        if rec.id != self.spec.id && key_id == self.key_id_of(rec.id) {
+                        if rec.id != self.spec.id && on_key {
                             self.step = rec.step.saturating_add(1);
                             self.started = true;
                             self.buffer.clear();

@@ -16,11 +16,7 @@ impl Agent {
 
     pub(super) fn handle(&mut self, msg: Msg) -> Result<(), Halt> {
         match msg {
-            Msg::State(data, key_id) => self.handle_state(&data, key_id),
-            Msg::Where(c, j, present) => {
-                self.note_where(c, j, present);
-                Ok(())
-            }
+            Msg::State(data, on_key) => self.handle_state(&data, on_key),
             Msg::Gone(j) => {
                 if j != self.spec.id && self.dead.insert(j) {
                     self.latest.remove(&j);
@@ -70,7 +66,7 @@ impl Agent {
         }
     }
 
-    pub(super) fn handle_state(&mut self, data: &[u8], key_id: Option<u32>) -> Result<(), Halt> {
+    pub(super) fn handle_state(&mut self, data: &[u8], on_key: bool) -> Result<(), Halt> {
         let rec = match wire::decode_state(data) {
             Ok(r) => r,
             Err(reason) => {
@@ -78,9 +74,9 @@ impl Agent {
                 return Ok(());
             }
         };
-        // In the id layout the router lets an agent publish only under its own id (docs/security.md): a record
-        // naming another id is a forgery by the key's owner. Cell keys carry no id.
-        if key_id != self.key_id_of(rec.id) {
+        // Only an exact cell key vouches for a record: at access level `acl` only the launcher's relay may put
+        // there, after checking the record's id against its sender's key (docs/security.md).
+        if !on_key {
             self.reject("key");
             return Ok(());
         }

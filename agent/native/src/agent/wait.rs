@@ -103,11 +103,7 @@ impl Agent {
                 for j in &ids {
                     if let Some((s, jx, jy)) = self.latest.remove(j) {
                         let dist = (jx - self.state[X]).hypot(jy - self.state[Y]);
-                        let watched = if self.spec.state_key_ids {
-                            self.state_subs.contains_key(j)
-                        } else {
-                            !jx.is_nan() && self.cell_subs.contains_key(&keys::cell_of(jx, jy, self.cell))
-                        };
+                        let watched = !jx.is_nan() && self.cell_subs.contains_key(&keys::cell_of(jx, jy, self.cell));
                         seen.push(Sighting { agent: *j, step: s, distance: dist.is_finite().then_some(dist), watched });
                     }
                     self.counters.timeouts += 1;
