@@ -21,7 +21,7 @@ import threading
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.wire import decode_state
+from agent.protocol.wire import peek_id_position
 
 REJECT_ID = "id"  # a record naming another agent than its key's: the key's owner forged it
 REJECT_KEY = "key"  # not exactly an agent's id key (a wildcard put)
@@ -33,10 +33,15 @@ class StateRelay:
     def __init__(self, session: zenoh.Session, run: str):
         self.session, self.run = session, run
         self.cell: float | None = None
-        self._subs: dict[int, object] = {}
+        self._ids: dict[str, int] = {}  # exact id key -> the agent id it belongs to, for the agents relayed
         self._cell_keys: dict[tuple[int, int], zenoh.KeyExpr] = {}
         self._lock = threading.Lock()
         self.rejected: dict[str, int] = {}
+        # One subscriber on every id key (the launcher's pacer subscribes to them anyway: a client launcher
+        # gets each state once for both), its callback on one Python thread of its own (zenoh-python's
+        # default): measured against one subscriber per agent (a thread each) and against the callback on
+        # zenoh's receiving threads (they then contend for the GIL while routing), docs/benchmarks/security.md.
+        self._sub = session.declare_subscriber(keys.state_observed_expr(run, id_keys=True), self._relay)
 
     def add(self, agent_id: int, cell: float) -> None:
         """Relay agent `agent_id`'s states from now on (before it starts: none of its states is missed)."""
@@ -45,36 +50,32 @@ class StateRelay:
         elif cell != self.cell:
             raise ValueError(f"agent {agent_id}: smoothing length {cell} differs from the run's {self.cell} "
                              "(agents hear each other on cells of one size)")
-        if agent_id in self._subs:
-            return
-        exact = keys.state_key(self.run, agent_id)
-        key = self.session.declare_keyexpr(exact)
-        # A callback, not a channel: the relay is on every state's path from sender to neighbours, and a
-        # channel's consumer thread would add a thread wake-up to each (measured: docs/benchmarks/security.md).
-        self._subs[agent_id] = self.session.declare_subscriber(key, lambda sample: self._relay(agent_id, exact, sample))
+        self._ids[keys.state_key(self.run, agent_id)] = agent_id
 
-    def _relay(self, agent_id: int, exact: str, sample) -> None:
-        if str(sample.key_expr) != exact:
-            # A put on a wildcard key (`…/state/*`, `fluidswarm/**`) reaches this subscriber too and passes the
-            # router (its deny rules cannot name every wildcard): it vouches for no agent.
-            self._reject(REJECT_KEY)
-            return
+    def _relay(self, sample) -> None:
+        key = str(sample.key_expr)
+        agent_id = self._ids.get(key)
+        if agent_id is None:
+            if "*" in key:
+                # A put on a wildcard key (`…/state/*`) reaches this subscriber too and passes the router (its
+                # deny rules cannot name every wildcard): it vouches for no agent.
+                self._reject(REJECT_KEY)
+            return  # another launcher's agent (a multi-host run): its own launcher relays it
         data = sample.payload.to_bytes()
-        decoded, reason = decode_state(data)
-        if decoded is None:
+        peek, reason = peek_id_position(data)
+        if peek is None:
             self._reject(reason)
             return
-        if decoded[0] != agent_id:
+        if peek[0] != agent_id:
             self._reject(REJECT_ID)
             return
-        values = decoded[3]
-        c = keys.cell_of(values[0], values[1], self.cell)
-        key = self._cell_keys.get(c)
-        if key is None:
-            key = self._cell_keys.setdefault(c, self.session.declare_keyexpr(keys.cell_key(self.run, *c)))
+        c = keys.cell_of(peek[1], peek[2], self.cell)
+        cell_key = self._cell_keys.get(c)
+        if cell_key is None:
+            cell_key = self._cell_keys.setdefault(c, self.session.declare_keyexpr(keys.cell_key(self.run, *c)))
         # REMOTE: the launcher's own observers (pacer) already took the state from its id key. BLOCK, as the
         # agents put their states: a neighbour's full queue delays a state, never drops it.
-        self.session.put(key, data, congestion_control=zenoh.CongestionControl.BLOCK,
+        self.session.put(cell_key, data, congestion_control=zenoh.CongestionControl.BLOCK,
                          allowed_destination=zenoh.Locality.REMOTE)
 
     def _reject(self, reason: str) -> None:
@@ -82,9 +83,7 @@ class StateRelay:
             self.rejected[reason] = self.rejected.get(reason, 0) + 1
 
     def close(self) -> None:
-        for sub in self._subs.values():
-            try:
-                sub.undeclare()
-            except Exception:
-                pass  # the session is already closed
-        self._subs.clear()
+        try:
+            self._sub.undeclare()
+        except zenoh.ZError:
+            pass  # the session is already closed

@@ -27,6 +27,7 @@ KIND_STATE = 1
 _HEADER = struct.Struct("<BBHIIHH")
 _RECORD = struct.Struct("<BBHIIHH9d")
 _ID_STEP = struct.Struct("<II")  # agent id and step, at offset 4
+_HEAD_XY = struct.Struct("<BBHIIHH2d")  # the header and the first two values (x, y)
 _FLAG_VALUE = (0.0, 1.0)  # flags bit 0 (frozen) as the state's FROZEN field
 STATE_SIZE = _RECORD.size  # 88
 MAX_ID = 2**31 - 1
@@ -49,6 +50,19 @@ def peek_id_step(data: bytes) -> tuple[int, int] | None:
     if len(data) != STATE_SIZE:
         return None
     return _ID_STEP.unpack_from(data, 4)
+
+
+def peek_id_position(data: bytes):
+    """((agent_id, x, y), None) of a state record, for routing it by position (the launcher's relay), or
+    (None, reason) as decode_state gives it for the header and the position. Receivers decode it in full."""
+    if len(data) != STATE_SIZE:
+        return None, REJECT_LENGTH
+    version, kind, _flags, agent_id, _step, _cls, _pad, x, y = _HEAD_XY.unpack_from(data)
+    if version != VERSION or kind != KIND_STATE:
+        return None, REJECT_VERSION
+    if not (-MAX_ABS <= x <= MAX_ABS and -MAX_ABS <= y <= MAX_ABS):  # also false for NaN and infinities
+        return None, REJECT_VALUE
+    return (agent_id, x, y), None
 
 
 def decode_state(data: bytes):
