@@ -6,7 +6,8 @@ At access level `acl` (and on multi-host routers with a users file) an agent put
 sender's id key, checks the record names that sender, and puts it again on the cell key of the record's
 position. So every state an agent receives was vouched for by the router (the sender's key) and the relay
 (the record's id), and the agents keep the cell layout's cheap exact routes and its causal exactness argument
-with no discovery traffic (what the id layout's `where` tokens cost: docs/benchmarks/security.md).
+with no discovery traffic (finding neighbours through liveliness tokens cost most of the steps/s that
+per-process rights took before: docs/benchmarks/security.md).
 
 It runs on the launcher's session: on the router's own session when the launcher embeds the router (no extra
 hop: the relay's puts are routed in-process), as a client of its host's router in a multi-host run. It relays

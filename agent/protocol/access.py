@@ -182,7 +182,8 @@ class LaunchAccess:
         self.acl = acl
         self.capacity = capacity
         # Routers that enforce per-process rights (our embedded one at level acl; multi-host routers given a
-        # users file) let an agent publish states only under its own id: agents use the id layout (state/<id>).
+        # users file) let an agent publish states only under its own id: agents put them on state/<id>, the
+        # launcher's relay puts them on the cell keys (agent/relay.py).
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod

@@ -57,8 +57,8 @@ impl Agent {
                 .put(key, record.to_vec())
                 .congestion_control(self.tuning.congestion)
                 .express(self.tuning.express)
-                // Our own cell's subscriber would otherwise get our state back (in the id layout the relay's
-                // copy on our cell still comes back; receive.rs drops our own id)
+                // Our own cell's subscriber would otherwise get our state back (under per-process rights the
+                // relay's copy on our cell still comes back; receive.rs drops our own id)
                 .allowed_destination(Locality::Remote)
                 .wait();
         }
