@@ -3,9 +3,9 @@
     .venv/bin/python scripts/security_side_by_side.py N[,N...] STEPS ROUNDS OUT.json [BASE_DIR BASE_AGENT_BINARY]
 
 Per N and round, alternating, one swarm each (`run_swarm(spread_block(N), STEPS)`, as scripts/probe_swarm.py):
-  acl       fresh credentials, per-process access control on the router, ids in the state keys
-            (FLUIDSWARM_ACCESS=acl)
-  acl-keys  the same run without the router's access control: credentials and ids in the state keys, no rules
+  acl       fresh credentials, per-process access control on the router, agents put on their id keys and the
+            launcher relays onto the cell keys (FLUIDSWARM_ACCESS=acl)
+  acl-keys  the same run without the router's access control: credentials, id keys and the relay, no rules
             (measures the rules' own cost; a measurement only, no FLUIDSWARM_ACCESS level)
   auth      credentials only, one exact state key per cell (FLUIDSWARM_ACCESS=auth)
   open      no credentials (FLUIDSWARM_ACCESS=none), same agent binary
