@@ -4,12 +4,14 @@ a client that puts on an agent's id key and listens on the cell keys, as agents 
 import time
 
 import numpy as np
+import pytest
 import zenoh
 
 from agent.protocol import keys
 from agent.protocol.session import client_config, router_config
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
 from agent.relay import StateRelay
+from agent.sph.particle import NFIELDS
 from agent.router_host import free_port
 from tests.swarm_helpers import wait_until
 
@@ -17,9 +19,12 @@ RUN = "r"
 
 
 def record(agent_id: int, x: float, y: float, step: int = 0) -> bytes:
-    return encode_state(agent_id, step, np.array([x, y, 0.1, -0.2, 1000.0, 0.0, 0.0, 0.0, 0.0]))
+    state = np.zeros(NFIELDS)
+    state[[0, 1, 4]] = x, y, 1000.0  # position and a density (a record needs a positive one)
+    return encode_state(agent_id, step, state)
 
 
+@pytest.mark.swarm
 def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest():
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = zenoh.open(router_config([endpoint]))
