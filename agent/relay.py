@@ -11,13 +11,10 @@ per-process rights took before: docs/benchmarks/security.md).
 
 It runs on the launcher's session: on the router's own session when the launcher embeds the router (no extra
 hop: the relay's puts are routed in-process), as a client of its host's router in a multi-host run. It relays
-only the agents its launcher started (an exact subscription per id), so each host's launcher relays its own
-agents once.
+only the agents its launcher started (`add`), so each host's launcher relays its own agents, once.
 """
 
 from __future__ import annotations
-
-import threading
 
 import zenoh
 
@@ -36,12 +33,12 @@ class StateRelay:
         self.cell: float | None = None
         self._ids: dict[str, int] = {}  # exact id key -> the agent id it belongs to, for the agents relayed
         self._cell_keys: dict[tuple[int, int], zenoh.KeyExpr] = {}
-        self._lock = threading.Lock()
-        self.rejected: dict[str, int] = {}
+        self.rejected: dict[str, int] = {}  # reason -> records dropped (written by the callback's thread only)
         # One subscriber on every id key (the launcher's pacer subscribes to them anyway: a client launcher
         # gets each state once for both), its callback on one Python thread of its own (zenoh-python's
-        # default): measured against one subscriber per agent (a thread each) and against the callback on
-        # zenoh's receiving threads (they then contend for the GIL while routing), docs/benchmarks/security.md.
+        # default; so the callback never runs twice at once): measured against one subscriber per agent (a
+        # thread each) and against the callback on zenoh's receiving threads (they then contend for the GIL
+        # while routing), docs/benchmarks/security.md.
         self._sub = session.declare_subscriber(keys.state_observed_expr(run, id_keys=True), self._relay)
 
     def add(self, agent_id: int, cell: float) -> None:
@@ -73,15 +70,14 @@ class StateRelay:
         c = keys.cell_of(peek[1], peek[2], self.cell)
         cell_key = self._cell_keys.get(c)
         if cell_key is None:
-            cell_key = self._cell_keys.setdefault(c, self.session.declare_keyexpr(keys.cell_key(self.run, *c)))
+            cell_key = self._cell_keys[c] = self.session.declare_keyexpr(keys.cell_key(self.run, *c))
         # REMOTE: the launcher's own observers (pacer) already took the state from its id key. BLOCK, as the
         # agents put their states: a neighbour's full queue delays a state, never drops it.
         self.session.put(cell_key, data, congestion_control=zenoh.CongestionControl.BLOCK,
                          allowed_destination=zenoh.Locality.REMOTE)
 
     def _reject(self, reason: str) -> None:
-        with self._lock:
-            self.rejected[reason] = self.rejected.get(reason, 0) + 1
+        self.rejected[reason] = self.rejected.get(reason, 0) + 1
 
     def close(self) -> None:
         try:

@@ -65,8 +65,9 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
 
 
 def cell_key(run: str, cx: int, cy: int) -> str:
-    """A state published in cell (cx, cy), the id only in the record: the layout without per-process rights,
-    one exact key per cell, the cheapest for zenoh (docs/protocol.md)."""
+    """The states of the agents in cell (cx, cy), the id only in the record: what agents hear on, one exact key
+    per cell, the cheapest for zenoh. Put by the agents without per-process rights, else by the launcher's
+    relay (docs/protocol.md)."""
     return f"{PREFIX}/{run}/state/{cx}/{cy}"
 
 
