@@ -9,7 +9,6 @@ certificate signed by that CA open a link.
 
 from __future__ import annotations
 
-
 import zenoh
 
 from agent.protocol.access import AuthFileError, acl_config, read_users_file
