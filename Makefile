@@ -8,6 +8,7 @@ STAMP := $(VENV)/.installed
 CARGO ?= $(shell command -v cargo 2>/dev/null || echo $(HOME)/.cargo/bin/cargo)
 NATIVE := agent/native
 AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
+ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
 
 .PHONY: demo test install clean bench agent
@@ -18,13 +19,14 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-$(AGENT_BIN): $(AGENT_SRC)
+# One cargo build makes both programs: the agent and the router of access level acl (agent/router_process.py)
+$(AGENT_BIN) $(ROUTER_BIN) &: $(AGENT_SRC)
 	$(CARGO) build --release --locked --manifest-path $(NATIVE)/Cargo.toml
-	touch $(AGENT_BIN)
+	touch $(AGENT_BIN) $(ROUTER_BIN)
 
-agent: $(AGENT_BIN)
+agent: $(AGENT_BIN) $(ROUTER_BIN)
 
-install: $(STAMP) $(AGENT_BIN)
+install: $(STAMP) $(AGENT_BIN) $(ROUTER_BIN)
 
 demo: install
 	$(BIN)/fluidswarm demo

@@ -83,7 +83,7 @@ class Launcher:
             raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
         self.secret = secret if secret is not None else secrets.token_hex(32)
         self.agent_timeout, self.commands, self.quiet = agent_timeout, commands, quiet
-        self.router = RouterHost(connect, listen, user, password, auth_file)
+        self.router = RouterHost(self.run, connect, listen, user, password, auth_file)
         self.endpoint, self.agent_endpoint = self.router.endpoint, self.router.agent_endpoint
         self.access, self.session = self.router.access, self.router.session
         self.swarm = Swarm(self.run, self.endpoint, self.session)
@@ -93,8 +93,11 @@ class Launcher:
             self.router.close()
             raise
         self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
-        # Under per-process rights agents put states on their id keys; the relay puts them on the cells
-        self.relay = StateRelay(self.session, self.run) if self.access.state_key_ids else None
+        # Under per-process rights agents put states on their id keys; the relay puts them on the cells: the
+        # compiled router's own (an embedded router), else one on this launcher's session (a client)
+        self.relay = self.router.relay
+        if self.relay is None and self.access.state_key_ids:
+            self.relay = StateRelay(self.session, self.run)
         self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet,
                                         self.access.state_key_ids)
         self.closed = False

@@ -16,7 +16,8 @@ from dataclasses import astuple
 import zenoh
 
 from agent.protocol.access import LaunchAccess
-from agent.protocol.session import client_config, router_config
+from agent.protocol.session import client_config, router_config, router_config_dict
+from agent.router_process import RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
 AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
@@ -32,9 +33,10 @@ class RouterHost:
     """`endpoint`: where other processes and hosts connect; `agent_endpoint`: where this host's agents
     connect; `access`: the credentials handed to each process; `session`: the launcher's own session."""
 
-    def __init__(self, connect: str | None = None, listen: str | None = None, user: str = "", password: str = "",
-                 auth_file: str = ""):
+    def __init__(self, run: str, connect: str | None = None, listen: str | None = None, user: str = "",
+                 password: str = "", auth_file: str = ""):
         self._socket_dir = None
+        self.process: RouterProcess | None = None  # the compiled router, at level acl
         if connect:
             self.endpoint = self.agent_endpoint = connect
             self.access = LaunchAccess.client(user, password, auth_file)  # docs/security.md
@@ -50,16 +52,39 @@ class RouterHost:
                 self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
                 listeners.append(self.agent_endpoint)
             self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
-            conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
+            if self.access.acl is not None:
+                # Per-process rights: every state passes the relay, which runs inside a compiled router
+                # (agent/router_process.py); the launcher is its client.
+                try:
+                    self.process = RouterProcess(run, router_config_dict(
+                        listeners, dictionary_file=self.access.users_file, acl=self.access.acl))
+                finally:
+                    self.access.opened()
+                conf = client_config([self.endpoint], *astuple(self.access.own))
+            else:
+                conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
         try:
             self.session = zenoh.open(conf)
+        except BaseException:
+            self.close_process()
+            raise
         finally:
             self.access.opened()
+
+    @property
+    def relay(self):
+        """The compiled router's relay (agent/router_process.py), None without one."""
+        return self.process.relay if self.process is not None else None
+
+    def close_process(self) -> None:
+        if self.process is not None:
+            self.process.close()
 
     def close(self) -> None:
         try:
             self.session.close()
         except zenoh.ZError:  # the router's close can time out with many links still open; nothing is lost
             pass
+        self.close_process()
         if self._socket_dir:
             shutil.rmtree(self._socket_dir, ignore_errors=True)

@@ -37,33 +37,52 @@ MAX_SESSIONS = 20000
 ACCEPT_PENDING = 2000
 
 
-def router_config(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
-                  user: str = "", password: str = "", acl: dict | None = None,
-                  tls: "TlsFiles | None" = None) -> zenoh.Config:
-    """An in-process router (mode "router"): no external daemon needed.
+def router_settings(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
+                    user: str = "", password: str = "", acl: dict | None = None,
+                    tls: "TlsFiles | None" = None) -> dict[str, object]:
+    """A router's settings (config path -> value), for zenoh-python's in-process router (router_config) and for
+    the compiled one (agent/router_process.py writes them as a JSON file: router_config_dict).
 
     `dictionary_file`: usrpwd users (`user:password` lines), required of every session; `acl`: Zenoh's
     `access_control` section (agent/protocol/access.py: acl_config); `user`/`password`: this router's own
     credentials towards the routers it connects to; `tls`: certificates for `tls/` endpoints."""
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", json.dumps(listen))
-    conf.insert_json5("connect/endpoints", json.dumps(connect or []))
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    # zenoh's defaults (1000 sessions, 100 handshakes pending) cap a swarm below 1000 agents: every agent,
-    # the recorder and the coordinator are sessions of this router, and they all connect at once.
-    conf.insert_json5("transport/unicast/max_sessions", str(MAX_SESSIONS))
-    conf.insert_json5("transport/unicast/accept_pending", str(ACCEPT_PENDING))
+    settings: dict[str, object] = {
+        "mode": "router", "listen/endpoints": list(listen), "connect/endpoints": list(connect or []),
+        "scouting/multicast/enabled": False,
+        # zenoh's defaults (1000 sessions, 100 handshakes pending) cap a swarm below 1000 agents: every agent,
+        # the recorder and the coordinator are sessions of this router, and they all connect at once.
+        "transport/unicast/max_sessions": MAX_SESSIONS, "transport/unicast/accept_pending": ACCEPT_PENDING,
+    }
     if dictionary_file:
-        conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(dictionary_file))
+        settings["transport/auth/usrpwd/dictionary_file"] = dictionary_file
         if user:
-            conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
-            conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+            settings["transport/auth/usrpwd/user"] = user
+            settings["transport/auth/usrpwd/password"] = password
     if acl is not None:
-        conf.insert_json5("access_control", json.dumps(acl))
+        settings["access_control"] = acl
     if tls is not None:
-        tls.apply(conf)
+        settings.update(tls.settings())
+    return settings
+
+
+def router_config(*args, **kwargs) -> zenoh.Config:
+    """An in-process router (mode "router"): no external daemon needed (arguments: router_settings)."""
+    conf = zenoh.Config()
+    for path, value in router_settings(*args, **kwargs).items():
+        conf.insert_json5(path, json.dumps(value))
     return conf
+
+
+def router_config_dict(*args, **kwargs) -> dict:
+    """The same settings as one nested dict: a Zenoh configuration file (JSON is JSON5)."""
+    out: dict = {}
+    for path, value in router_settings(*args, **kwargs).items():
+        *parents, leaf = path.split("/")
+        node = out
+        for name in parents:
+            node = node.setdefault(name, {})
+        node[leaf] = value
+    return out
 
 
 class TlsFiles:
@@ -78,9 +97,12 @@ class TlsFiles:
                 raise ValueError(f"{name} {path}: no such file")
         self.ca, self.cert, self.key = ca, cert, key
 
-    def apply(self, conf: zenoh.Config) -> None:
+    def settings(self) -> dict[str, object]:
         tls = {"root_ca_certificate": self.ca, "listen_certificate": self.cert, "listen_private_key": self.key,
                "connect_certificate": self.cert, "connect_private_key": self.key,
                "enable_mtls": True, "verify_name_on_connect": False}
-        for k, v in tls.items():
-            conf.insert_json5(f"transport/link/tls/{k}", json.dumps(v))
+        return {f"transport/link/tls/{k}": v for k, v in tls.items()}
+
+    def apply(self, conf: zenoh.Config) -> None:
+        for path, value in self.settings().items():
+            conf.insert_json5(path, json.dumps(value))

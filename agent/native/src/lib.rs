@@ -11,6 +11,7 @@ pub mod event;
 pub mod fill;
 pub mod final_report;
 pub mod keys;
+pub mod relay;
 pub mod route;
 pub mod session;
 pub mod spec;

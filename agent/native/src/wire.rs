@@ -99,6 +99,23 @@ pub fn peek_id_step(data: &[u8]) -> Option<(u32, u32)> {
     (data.len() == STATE_SIZE).then(|| (u32_at(data, 4), u32_at(data, 8)))
 }
 
+/// (id, x, y) of a state record for routing it by position (the router's relay), or the reason decode_state
+/// gives for its header and position (agent/protocol/wire.py: peek_id_position). Receivers decode it in full.
+pub fn peek_id_position(data: &[u8]) -> Result<(u32, f64, f64), &'static str> {
+    if data.len() != STATE_SIZE {
+        return Err(REJECT_LENGTH);
+    }
+    if data[0] != VERSION || data[1] != KIND_STATE {
+        return Err(REJECT_VERSION);
+    }
+    let x = f64::from_le_bytes(data[FLOATS_AT..FLOATS_AT + 8].try_into().expect("8 bytes"));
+    let y = f64::from_le_bytes(data[FLOATS_AT + 8..FLOATS_AT + 16].try_into().expect("8 bytes"));
+    if !(-MAX_ABS..=MAX_ABS).contains(&x) || !(-MAX_ABS..=MAX_ABS).contains(&y) {
+        return Err(REJECT_VALUE); // also NaN and infinities
+    }
+    Ok((u32_at(data, 4), x, y))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,169 @@
+//! The state relay under per-process rights, on the router's own session (the `fluidswarm-router` program;
+//! the Python twin for a launcher that is a client of another host's router is agent/relay.py).
+//!
+//! At access level `acl` an agent puts its state on its own id key, `state/<id>`, which the router's access
+//! control lets no other process use, and hears states on the cell keys, `state/<cx>/<cy>`, which no agent
+//! may put. The relay takes each state from its sender's id key, checks that the record names that sender and
+//! holds a finite position, and puts it again on the cell key of that position (docs/protocol.md).
+//! Running inside the router, its puts are routed in-process, with no hop and no Python (the Python relay on
+//! the launcher's session cost ~3 s of launcher CPU per 200 steps at N = 300: docs/benchmarks/security.md).
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, RwLock};
+
+use zenoh::key_expr::KeyExpr;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Locality, Sample};
+use zenoh::{Session, Wait};
+
+use crate::keys;
+use crate::wire;
+
+/// Reasons a state is not relayed, in the order the counters are reported: the record's own faults (as
+/// wire::decode_state names them), a record naming another agent than its key (`id`: the key's owner forged
+/// it), a put on a wildcard key (`key`: it names no agent; the router's deny rules cannot name every wildcard).
+pub const REASONS: [&str; 5] = [wire::REJECT_LENGTH, wire::REJECT_VERSION, wire::REJECT_VALUE, "id", "key"];
+pub const REJECT_ID: &str = "id";
+pub const REJECT_KEY: &str = "key";
+
+/// Which agents are relayed and on which cells: filled by the launcher (`add`) before each agent starts, read
+/// by the relay for every state.
+pub struct RelayTable {
+    run: String,
+    ids: RwLock<HashMap<String, u32>>, // exact id key -> the agent id it belongs to
+    cell: RwLock<Option<f64>>,         // the cell side (m = h), one for the whole run
+    rejected: [AtomicU64; REASONS.len()],
+}
+
+impl RelayTable {
+    pub fn new(run: &str) -> RelayTable {
+        RelayTable { run: run.to_string(), ids: RwLock::default(), cell: RwLock::default(), rejected: Default::default() }
+    }
+
+    /// Relay agent `id`'s states from now on, on cells of side `cell` (the run's smoothing length).
+    pub fn add(&self, id: u32, cell: f64) -> Result<(), String> {
+        if id >= keys::MAX_AGENTS {
+            return Err(format!("agent id {id}: ids 0..{} only", keys::MAX_AGENTS - 1));
+        }
+        if !(cell.is_finite() && cell > 0.0) {
+            return Err(format!("agent {id}: smoothing length {cell} is not a positive number"));
+        }
+        let mut known = self.cell.write().expect("cell lock");
+        match *known {
+            None => *known = Some(cell),
+            Some(c) if c != cell => {
+                return Err(format!("agent {id}: smoothing length {cell} differs from the run's {c} (agents hear each other on cells of one size)"))
+            }
+            Some(_) => {}
+        }
+        self.ids.write().expect("ids lock").insert(keys::state_key(&self.run, id), id);
+        Ok(())
+    }
+
+    /// The cell a state on `key` goes to, None if it is not relayed (the reason counted, or another
+    /// launcher's agent: its own launcher relays it).
+    pub fn route(&self, key: &str, data: &[u8]) -> Option<(i64, i64)> {
+        let Some(&id) = self.ids.read().expect("ids lock").get(key) else {
+            if key.contains('*') {
+                self.reject(REJECT_KEY);
+            }
+            return None;
+        };
+        match wire::peek_id_position(data) {
+            Err(reason) => {
+                self.reject(reason);
+                None
+            }
+            Ok((named, _, _)) if named != id => {
+                self.reject(REJECT_ID);
+                None
+            }
+            Ok((_, x, y)) => {
+                let cell = self.cell.read().expect("cell lock").expect("a relayed agent set the cell");
+                Some(keys::cell_of(x, y, cell))
+            }
+        }
+    }
+
+    fn reject(&self, reason: &str) {
+        if let Some(k) = REASONS.iter().position(|r| *r == reason) {
+            self.rejected[k].fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// `length=<n> version=<n> value=<n> id=<n> key=<n>`
+    pub fn rejected_line(&self) -> String {
+        REASONS.iter().zip(&self.rejected).map(|(r, n)| format!("{r}={}", n.load(Ordering::Relaxed))).collect::<Vec<_>>().join(" ")
+    }
+}
+
+/// The relay on `session`: one subscriber on every id key of the run, whose callback routes and puts each
+/// state on zenoh's receiving thread (no hand-over: the put is routed right there, as the router forwards
+/// any message).
+pub struct StateRelay {
+    _sub: zenoh::pubsub::Subscriber<()>,
+}
+
+impl StateRelay {
+    pub fn start(session: &Session, table: std::sync::Arc<RelayTable>) -> zenoh::Result<StateRelay> {
+        let cells: Mutex<HashMap<(i64, i64), KeyExpr<'static>>> = Mutex::default();
+        let out = session.clone();
+        let expr = format!("{}/{}/state/*", keys::PREFIX, table.run);
+        let sub = session
+            .declare_subscriber(expr)
+            .callback(move |sample: Sample| {
+                let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
+                    return;
+                };
+                let key = {
+                    let mut cells = cells.lock().expect("cells lock");
+                    match cells.get(&c) {
+                        Some(k) => k.clone(),
+                        None => match out.declare_keyexpr(keys::cell_key(&table.run, c)).wait() {
+                            Ok(k) => cells.entry(c).or_insert(k).clone(),
+                            Err(_) => return, // the session is closing
+                        },
+                    }
+                };
+                // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
+                // states: a neighbour's full queue delays a state, never drops it.
+                let _ = out
+                    .put(key, sample.payload().clone())
+                    .congestion_control(CongestionControl::Block)
+                    .allowed_destination(Locality::Remote)
+                    .wait();
+            })
+            .wait()?;
+        Ok(StateRelay { _sub: sub })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(id: u32, x: f64, y: f64) -> Vec<u8> {
+        let mut s = [0.0; crate::sph::NFIELDS];
+        s[0] = x;
+        s[1] = y;
+        s[4] = 1.0;
+        wire::encode_state(id, 3, &s, 0).to_vec()
+    }
+
+    #[test]
+    fn routes_an_added_agents_record_to_its_cell_and_counts_the_rest() {
+        let t = RelayTable::new("r");
+        t.add(5, 0.5).unwrap();
+        let k5 = keys::state_key("r", 5);
+        assert_eq!(t.route(&k5, &record(5, 1.2, -0.1)), Some((2, -1)));
+        assert_eq!(t.route(&k5, &record(6, 1.2, -0.1)), None); // names another agent
+        assert_eq!(t.route(&k5, &record(5, f64::NAN, 0.0)), None);
+        assert_eq!(t.route(&k5, &record(5, 0.0, 0.0)[..40]), None);
+        assert_eq!(t.route("fluidswarm/r/state/*", &record(5, 0.0, 0.0)), None);
+        assert_eq!(t.route(&keys::state_key("r", 6), &record(6, 0.0, 0.0)), None); // not ours: not counted
+        assert_eq!(t.rejected_line(), "length=1 version=0 value=1 id=1 key=1");
+        assert!(t.add(6, 0.4).is_err()); // one cell size per run
+        assert!(t.add(6, f64::NAN).is_err());
+    }
+}

@@ -1,0 +1,110 @@
+"""The compiled embedded router (`fluidswarm-router`, agent/native/src/router_main.rs): the launcher's router
+at access level `acl`, with the state relay on the router's own session (agent/native/src/relay.rs).
+
+Why a process of its own: under per-process rights every state passes the relay (its sender's id key in, its
+cell's key out). On the launcher's zenoh-python session that cost a Python hand-over per state (~3 s of launcher
+CPU per 200 steps at N = 300); inside a compiled router it is a table look-up on zenoh's receiving thread
+(docs/benchmarks/security.md). The launcher is then a client of its router, like every other process.
+
+The router's configuration (listen endpoints, users file, access-control rules) travels in a private file
+(0600 in a 0700 directory, removed once the router has read it), never on the command line; the launcher talks
+to it over its stdin and stdout (`add`, `rejected`); closing its stdin, or the launcher's death, closes it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+
+from agent.executable import router_executable
+
+CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
+CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_main.rs)
+
+
+class RouterFailed(RuntimeError):
+    """The compiled router did not start or stopped answering (the message says why, in one line)."""
+
+
+class RouterProcess:
+    """`run`: the run's name (the relay's keys); `settings`: the router's Zenoh configuration as a nested dict
+    (agent/protocol/session.py: router_config_dict)."""
+
+    def __init__(self, run: str, settings: dict):
+        private = tempfile.mkdtemp(prefix="fluidswarm-router-")  # mode 0700
+        try:
+            path = os.path.join(private, "router.json")
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "w") as f:
+                json.dump(settings, f)
+            errors = open(os.path.join(private, "stderr"), "w+")
+            self.proc = subprocess.Popen([router_executable(), run], env=dict(os.environ, **{CONFIG_ENV: path}),
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=errors, text=True,
+                                         bufsize=1)
+            first = self.proc.stdout.readline().strip()
+            if first != "ready":
+                self.proc.wait()
+                errors.seek(0)
+                why = errors.read().strip().splitlines()
+                raise RouterFailed(why[-1] if why else f"fluidswarm-router exited with code {self.proc.returncode}")
+        finally:
+            shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
+        self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
+        self.relay = CompiledRelay(self)
+
+    def ask(self, request: str) -> str:
+        """Send one request line, return the router's answer line."""
+        with self._lock:
+            try:
+                self.proc.stdin.write(request + "\n")
+                self.proc.stdin.flush()
+                answer = self.proc.stdout.readline()
+            except (BrokenPipeError, ValueError):
+                answer = ""
+        if not answer:
+            raise RouterFailed(f"fluidswarm-router stopped (exit code {self.proc.poll()})")
+        return answer.strip()
+
+    def close(self) -> None:
+        """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent."""
+        with self._lock:
+            try:
+                self.proc.stdin.close()
+            except (BrokenPipeError, OSError):
+                pass
+        try:
+            self.proc.wait(CLOSE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self.proc.stdout.close()
+
+
+class CompiledRelay:
+    """The relay inside the compiled router, with agent/relay.py's interface: `add`, `rejected`, `close`."""
+
+    def __init__(self, router: RouterProcess):
+        self._router = router
+
+    def add(self, agent_id: int, cell: float) -> None:
+        """Relay agent `agent_id`'s states from now on (the router answers once its table holds it, so call
+        this before the agent starts: none of its states is missed)."""
+        answer = self._router.ask(f"add {int(agent_id)} {float(cell)!r}")
+        if answer != "ok":
+            raise ValueError(answer.removeprefix("error "))
+
+    @property
+    def rejected(self) -> dict[str, int]:
+        """Reason -> states the relay dropped so far (the reasons of agent/relay.py)."""
+        answer = self._router.ask("rejected")
+        words = answer.split()
+        if not words or words[0] != "rejected":
+            raise RouterFailed(f"fluidswarm-router: unexpected answer {answer!r}")
+        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+
+    def close(self) -> None:
+        pass  # the relay ends with its router
