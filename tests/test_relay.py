@@ -1,5 +1,11 @@
-"""The launcher's state relay (agent/relay.py) with real Zenoh sessions: a router, the relay on its own session,
-a client that puts on an agent's id key and listens on the cell keys, as agents do under per-process rights."""
+"""The state relays with real Zenoh sessions: a router with the relay on its own session — zenoh-python's with
+agent/relay.py (a launcher's relay), or the compiled router's (agent/router_process.py, the embedded router at
+level acl) — and a client that puts on an agent's id key and listens on the cell keys, as agents do under
+per-process rights."""
+
+import contextlib
+import os
+import tempfile
 
 import time
 
@@ -8,11 +14,12 @@ import pytest
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.session import client_config, router_config
+from agent.protocol.session import client_config, router_config, router_config_dict
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
 from agent.relay import StateRelay
 from agent.sph.particle import NFIELDS
 from agent.router_host import free_port
+from agent.router_process import RouterFailed, RouterProcess
 from tests.swarm_helpers import wait_until
 
 RUN = "r"
@@ -24,35 +31,71 @@ def record(agent_id: int, x: float, y: float, step: int = 0) -> bytes:
     return encode_state(agent_id, step, state)
 
 
-@pytest.mark.swarm
-def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest():
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+@contextlib.contextmanager
+def python_relay(endpoint: str):
     router = zenoh.open(router_config([endpoint]))
     relay = StateRelay(router, RUN)
-    relay.add(3, cell=0.5)
-    client = zenoh.open(client_config([endpoint]))
-    heard: list[tuple[str, bytes]] = []
-    sub = client.declare_subscriber(f"{keys.PREFIX}/{RUN}/state/*/*",
-                                    lambda s: heard.append((str(s.key_expr), s.payload.to_bytes())))
     try:
-        time.sleep(0.3)  # the subscription reaches the router before anything is put (pub/sub is not durable)
-        good = record(3, 1.2, -0.1)
-        client.put(keys.state_key(RUN, 3), good)
-        client.put(keys.state_key(RUN, 3), record(4, 1.2, -0.1))  # another agent's record under 3's key
-        client.put(f"{keys.PREFIX}/{RUN}/state/*", record(3, 5.0, 5.0))  # a wildcard key names nobody
-        client.put(keys.state_key(RUN, 3), good[:-1])  # not a record
-        client.put(keys.state_key(RUN, 3), record(3, float("nan"), 0.0))  # no position to route by
-        client.put(keys.state_key(RUN, 5), record(5, 1.2, -0.1))  # not an agent of this launcher's
-        assert wait_until(lambda: sum(relay.rejected.values()) == 4, 10), relay.rejected
-        time.sleep(0.3)
+        yield relay
     finally:
-        sub.undeclare()
-        client.close()
         relay.close()
         router.close()
+
+
+@contextlib.contextmanager
+def compiled_relay(endpoint: str):
+    router = RouterProcess(RUN, router_config_dict([endpoint]))
+    try:
+        yield router.relay
+    finally:
+        router.close()
+        assert router.proc.returncode == 0  # it closed when its stdin did
+
+
+@pytest.mark.swarm
+@pytest.mark.parametrize("make_relay", [python_relay, compiled_relay], ids=["python", "compiled"])
+def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest(make_relay):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    heard: list[tuple[str, bytes]] = []
+    with make_relay(endpoint) as relay:
+        relay.add(3, cell=0.5)
+        with pytest.raises(ValueError, match="smoothing length"):
+            relay.add(4, cell=0.25)  # agents hear each other on cells of one size
+        client = zenoh.open(client_config([endpoint]))
+        sub = client.declare_subscriber(f"{keys.PREFIX}/{RUN}/state/*/*",
+                                        lambda s: heard.append((str(s.key_expr), s.payload.to_bytes())))
+        try:
+            time.sleep(0.3)  # the subscription reaches the router before anything is put (pub/sub is not durable)
+            good = record(3, 1.2, -0.1)
+            client.put(keys.state_key(RUN, 3), good)
+            client.put(keys.state_key(RUN, 3), record(4, 1.2, -0.1))  # another agent's record under 3's key
+            client.put(f"{keys.PREFIX}/{RUN}/state/*", record(3, 5.0, 5.0))  # a wildcard key names nobody
+            client.put(keys.state_key(RUN, 3), good[:-1])  # not a record
+            client.put(keys.state_key(RUN, 3), record(3, float("nan"), 0.0))  # no position to route by
+            client.put(keys.state_key(RUN, 5), record(5, 1.2, -0.1))  # not an agent of this launcher's
+            assert wait_until(lambda: sum(relay.rejected.values()) == 4, 10), relay.rejected
+            time.sleep(0.3)
+            rejected = {k: v for k, v in relay.rejected.items() if v}
+        finally:
+            sub.undeclare()
+            client.close()
     # x = 1.2, y = -0.1 in cells of 0.5: cell (2, -1), as keys.cell_of and the agents' keys.rs compute it
     assert heard == [(keys.cell_key(RUN, 2, -1), good)]
-    assert relay.rejected == {"id": 1, "key": 1, "length": 1, "value": 1}
+    assert rejected == {"id": 1, "key": 1, "length": 1, "value": 1}
+
+
+@pytest.mark.swarm
+def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_configuration():
+    port = free_port()
+    with compiled_relay(f"tcp/127.0.0.1:{port}"):
+        with pytest.raises(RouterFailed) as failed:  # the port is taken by the first one
+            RouterProcess(RUN, router_config_dict([f"tcp/127.0.0.1:{port}"]))
+    message = str(failed.value)
+    assert "fluidswarm router: error: cannot open the router" in message and "\n" not in message
+    with pytest.raises(RouterFailed, match="router.json: JSON error.*AclConfig"):
+        RouterProcess(RUN, {**router_config_dict([f"tcp/127.0.0.1:{free_port()}"]), "access_control": 5})
+    leftovers = [d for d in os.listdir(tempfile.gettempdir()) if d.startswith("fluidswarm-router-")]
+    assert leftovers == []  # its configuration (it names the users file, holds the rules) is removed
 
 
 def test_the_relays_peek_rejects_what_decode_state_rejects_for_the_header_and_position():
