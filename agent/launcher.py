@@ -3,7 +3,9 @@
 Used through fluidswarm/run.py by `fluidswarm launch`, `verify`, `imitate`, `run` and the benchmarks. The
 `Launcher` of one run puts together parts with one job each:
 
-    agent/router_host.py       the run's Zenoh session: an embedded router, or a client of one elsewhere
+    agent/router_host.py       the run's Zenoh session: an embedded router (at level acl the compiled one,
+                               agent/router_process.py, with the state relay), or a client of one elsewhere
+    agent/relay.py             the state relay of a launcher that is a client (multi-host, per-process rights)
     agent/supervisor.py        the agent processes: start, alive tokens, final reports, stop
     agent/pacing.py            the run's progress (steps seen) and its pacing clock, ctl/end and ctl/gone
     agent/recorder_process.py  the MCAP recorder process

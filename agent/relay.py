@@ -1,4 +1,4 @@
-"""The launcher's state relay under per-process rights (docs/protocol.md "Key expressions", docs/security.md).
+"""A launcher's state relay under per-process rights (docs/protocol.md "Key expressions", docs/security.md).
 
 At access level `acl` (and on multi-host routers with a users file) an agent puts its state on its own id key,
 `state/<id>`, which the router's access control lets no other process use. Agents hear states on cell keys,
@@ -9,9 +9,11 @@ position. So every state an agent receives was vouched for by the router (the se
 with no discovery traffic (finding neighbours through liveliness tokens cost most of the steps/s that
 per-process rights took before: docs/benchmarks/security.md).
 
-It runs on the launcher's session: on the router's own session when the launcher embeds the router (no extra
-hop: the relay's puts are routed in-process), as a client of its host's router in a multi-host run. It relays
-only the agents its launcher started (`add`), so each host's launcher relays its own agents, once.
+This one runs on a launcher's session when the launcher is a client of its host's router (a multi-host run):
+each host's launcher relays only the agents it started (`add`), once. A launcher's embedded router at level
+`acl` is the compiled `fluidswarm-router`, whose relay (agent/native/src/relay.rs) does the same on the
+router's own session without Python (agent/router_process.py; the Python relay there cost ~3 s of launcher
+CPU per 200 steps at N = 300, docs/benchmarks/security.md). tests/test_relay.py runs one test on both.
 """
 
 from __future__ import annotations

@@ -7,8 +7,9 @@ see acl_config) lets each user do only its role's part of the protocol (docs/pro
     agent-<id>    put its own state (`state/<id>`), event and final keys, its own alive token, query its own
                   final key; subscribe to states, ctl and the command
     launcher      put ctl/* and, its relay, cell keys (`state/<cx>/<cy>`); subscribe to states, events, finals,
-                  alive tokens; query liveliness (a launcher that connects to another router; the embedded
-                  router's own session is not a client)
+                  alive tokens; query liveliness (a client of its router: at level acl, where the embedded
+                  router is the compiled one, and in multi-host runs; at auth the embedded router is the
+                  launcher's own session, no client)
     coordinator   put the command, its liveliness token; subscribe to ctl
     recorder      subscribe only (states, events, finals, command, alive tokens); its liveliness token
     router        another host's router: everything (it forwards its own clients, which it checks itself)
@@ -183,7 +184,7 @@ class LaunchAccess:
         self.capacity = capacity
         # Routers that enforce per-process rights (our embedded one at level acl; multi-host routers given a
         # users file) let an agent publish states only under its own id: agents put them on state/<id>, the
-        # launcher's relay puts them on the cell keys (agent/relay.py).
+        # relay puts them on the cell keys (agent/router_process.py, agent/relay.py).
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod

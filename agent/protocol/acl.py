@@ -58,7 +58,7 @@ def acl_config(users: list[str]) -> dict:
 
     An agent may put its state, event and final keys, declare its alive token, query (the flush on its own
     final key) and subscribe; it may not put or declare another agent's keys (the bit rules), ctl, the
-    command, cell keys (`state/<cx>/<cy>`: only the launcher's relay puts there) or the recorder's or
+    command, cell keys (`state/<cx>/<cy>`: only the relay puts there) or the recorder's or
     coordinator's tokens, and it may never delete, reply, declare a queryable or query liveliness. The other
     roles likewise
     (docs/security.md has the table); the `router` role (another host's router) may do everything.
@@ -71,8 +71,8 @@ def acl_config(users: list[str]) -> dict:
         _deny("agent-never", ["liveliness_query"], _EVERYTHING),
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
-        # launcher (multi-host: a launcher that connects to a router): ctl, and its relay's puts on cell keys
-        # (agent/relay.py), never an agent's id key
+        # launcher (a client of its router: at acl, and multi-host): ctl, and its relay's puts on cell keys
+        # (agent/relay.py; the compiled router's relay is the router itself), never an agent's id key
         _deny("launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator

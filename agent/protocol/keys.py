@@ -2,7 +2,7 @@
 
     fluidswarm/<run>/state/<cx>/<cy>        a state of an agent in cell (cx, cy) (the record names the agent)
     fluidswarm/<run>/state/<id>             under per-process rights (acl): agent id puts its states here, the
-                                            launcher's relay puts them on their cell's key (agent/relay.py)
+                                            relay puts them on their cell's key (docs/protocol.md)
     fluidswarm/<run>/alive/<id>             liveliness token: the agent process is up
     fluidswarm/<run>/ctl/start|stop|clock|end|gone  launcher -> agents: begin / stop / pace / end / an agent is gone
     fluidswarm/<run>/final/<id>             agent -> launcher: final state and counters (JSON)
@@ -66,8 +66,8 @@ def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
 
 def cell_key(run: str, cx: int, cy: int) -> str:
     """The states of the agents in cell (cx, cy), the id only in the record: what agents hear on, one exact key
-    per cell, the cheapest for zenoh. Put by the agents without per-process rights, else by the launcher's
-    relay (docs/protocol.md)."""
+    per cell, the cheapest for zenoh. Put by the agents without per-process rights, else by the relay
+    (docs/protocol.md)."""
     return f"{PREFIX}/{run}/state/{cx}/{cy}"
 
 

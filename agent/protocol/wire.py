@@ -53,7 +53,7 @@ def peek_id_step(data: bytes) -> tuple[int, int] | None:
 
 
 def peek_id_position(data: bytes):
-    """((agent_id, x, y), None) of a state record, for routing it by position (the launcher's relay), or
+    """((agent_id, x, y), None) of a state record, for routing it by position (the relays), or
     (None, reason) as decode_state gives it for the header and the position. Receivers decode it in full."""
     if len(data) != STATE_SIZE:
         return None, REJECT_LENGTH
