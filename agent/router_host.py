@@ -52,7 +52,7 @@ class RouterHost:
                 self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
                 listeners.append(self.agent_endpoint)
             self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
-            if self.access.acl is not None:
+            if self.access.state_key_ids:
                 # Per-process rights: every state passes the relay, which runs inside a compiled router
                 # (agent/router_process.py); the launcher is its client.
                 try:

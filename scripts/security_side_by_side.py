@@ -4,8 +4,9 @@
 
 Per N and round, alternating, one swarm each (`run_swarm(spread_block(N), STEPS)`, as scripts/probe_swarm.py):
   acl       fresh credentials, per-process access control on the router, agents put on their id keys and the
-            launcher relays onto the cell keys (FLUIDSWARM_ACCESS=acl)
-  acl-keys  the same run without the router's access control: credentials, id keys and the relay, no rules
+            compiled router's relay puts them on the cell keys (FLUIDSWARM_ACCESS=acl)
+  acl-keys  the same run without the router's access control: credentials, id keys, the compiled router and its
+            relay, no rules
             (measures the rules' own cost; a measurement only, no FLUIDSWARM_ACCESS level)
   auth      credentials only, one exact state key per cell (FLUIDSWARM_ACCESS=auth)
   open      no credentials (FLUIDSWARM_ACCESS=none), same agent binary
