@@ -70,7 +70,13 @@ class RouterProcess:
         return answer.strip()
 
     def close(self) -> None:
-        """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent."""
+        """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent. The
+        relay's last counts stay readable (`relay.rejected`)."""
+        if self.proc.poll() is None and not self.proc.stdin.closed:
+            try:
+                self.relay.last = self.relay.rejected
+            except RouterFailed:
+                pass
         with self._lock:
             try:
                 self.proc.stdin.close()
@@ -89,6 +95,7 @@ class CompiledRelay:
 
     def __init__(self, router: RouterProcess):
         self._router = router
+        self.last: dict[str, int] = {}  # the counts when the router closed
 
     def add(self, agent_id: int, cell: float) -> None:
         """Relay agent `agent_id`'s states from now on (the router answers once its table holds it, so call
@@ -99,7 +106,10 @@ class CompiledRelay:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Reason -> states the relay dropped so far (the reasons of agent/relay.py)."""
+        """Reason -> states the relay dropped so far (the reasons of agent/relay.py); after the router closed,
+        its last counts."""
+        if self._router.proc.stdin.closed:
+            return dict(self.last)
         answer = self._router.ask("rejected")
         words = answer.split()
         if not words or words[0] != "rejected":

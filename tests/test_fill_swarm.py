@@ -16,8 +16,11 @@ import pytest
 from types import SimpleNamespace
 
 import numpy as np
+import zenoh
 
 from agent.protocol import keys
+from agent.protocol.access import PASSWORD_ENV, USER_ENV
+from agent.protocol.session import client_config
 from agent.fill import inside, zone_material
 from agent.protocol.command import Zone
 from agent.launcher import Launcher, run_swarm
@@ -57,10 +60,15 @@ def test_native_swarm_fills_a_shape_with_a_hole_like_the_reference():
     with Launcher(commands=True, agent_timeout=15.0) as la:
         payload = cmd.encode(bytes.fromhex(la.secret))
 
-        def coordinator():  # the coordinator republishes its current command
-            while not stop.is_set():
-                la.session.put(keys.command_key(la.run), payload)
-                time.sleep(0.05)
+        def coordinator():  # the coordinator (its own credentials: only it may put the command) republishes it
+            cred = la.access.env_for("coordinator")
+            s = zenoh.open(client_config([la.endpoint], cred.get(USER_ENV, ""), cred.get(PASSWORD_ENV, "")))
+            try:
+                while not stop.is_set():
+                    s.put(keys.command_key(la.run), payload)
+                    time.sleep(0.05)
+            finally:
+                s.close()
 
         t = threading.Thread(target=coordinator, daemon=True)
         t.start()
