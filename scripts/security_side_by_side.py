@@ -86,6 +86,19 @@ def main() -> None:
                 rows.append(row)
     with open(out, "w") as f:
         json.dump({"steps": steps, "rows": rows}, f, indent=1)
+    summarise(rows, ns, rounds)
+
+
+def summarise(rows: list[dict], ns: list[int], rounds: int) -> None:
+    """Per N: each setting's steps/s by round, and against `open` in the same round (the issue's figure)."""
+    rate = {(r["n"], r["setting"], r["round"]): r.get("steps_per_second") for r in rows}
+    for n in ns:
+        for name in sorted({r["setting"] for r in rows if r["n"] == n}):
+            values = [rate.get((n, name, k)) for k in range(rounds)]
+            ratios = [v / o for v, o in zip(values, (rate.get((n, "open", k)) for k in range(rounds))) if v and o]
+            against = (f"  vs open: {', '.join(f'{r:.0%}' for r in ratios)} (mean {sum(ratios) / len(ratios):.0%})"
+                       if ratios and name != "open" else "")
+            print(f"N={n} {name}: steps/s {', '.join('-' if v is None else f'{v:.2f}' for v in values)}{against}")
 
 
 if __name__ == "__main__":
