@@ -40,9 +40,9 @@ from agent.protocol.acl import acl_config, agent_id_of
 USER_ENV = "FLUIDSWARM_ZENOH_USER"
 PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
 # The embedded router's protection (docs/security.md): "auth" (default) fresh credentials per process, so no
-# outsider can open a session; "acl" also per-process rights (each agent publishes only under its own id;
-# states then carry the id in their key: 30-40 % fewer steps/s, docs/benchmarks/security.md); "none" an open
-# router as before issue 18.
+# outsider can open a session; "acl" also per-process rights (each agent publishes only under its own id, on its
+# id key; the embedded router is then the compiled one with the state relay, agent/router_process.py: ~5 % fewer
+# steps/s on the mean, docs/benchmarks/security.md); "none" an open router as before issue 18.
 LEVEL_ENV = "FLUIDSWARM_ACCESS"
 # A launcher that connects to a multi-host run's router reads its processes' credentials from this users file
 # (the routers hold the same file; docs/multi-host.md)
