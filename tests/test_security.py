@@ -36,6 +36,7 @@ from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
 from agent.supervisor import stop_process
+from tests.swarm_helpers import children_of
 
 FS = [sys.executable, "-m", "fluidswarm"]
 MARK = 0x7777  # the particle class the rogues stamp on their forgeries (a valid u16: the record stays well-formed)
@@ -123,9 +124,10 @@ def _verify_with_outsider(access: str) -> tuple[float, dict]:
         deadline = time.monotonic() + 30
         ports: list[int] = []
         while not ports and time.monotonic() < deadline and verify.poll() is None:
-            ports = _listening_ports(verify.pid)
+            # the verify process's own router, or (level acl) its compiled router's: a child of it
+            ports = [p for pid in [verify.pid, *children_of(verify.pid)] for p in _listening_ports(pid)]
             time.sleep(0.02)
-        assert ports, "the verify process never listened on a TCP port"
+        assert ports, "neither the verify process nor a child of it ever listened on a TCP port"
         rogue = subprocess.Popen([sys.executable, "-c", OUTSIDER, f"tcp/127.0.0.1:{ports[0]}"],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         out, err = verify.communicate(timeout=120)
@@ -141,10 +143,12 @@ def _verify_with_outsider(access: str) -> tuple[float, dict]:
 
 @pytest.mark.swarm
 def test_an_outsider_without_credentials_cannot_connect_and_verify_stays_exact():
-    error, tally = _verify_with_outsider("auth")  # the default: credentials for every process
-    print(f"with credentials: max_position_error={error:.2e}, outsider {tally}")
-    assert tally.get("attempts", 0) >= 3 and tally["connected"] == 0 and tally["forged"] == 0
-    assert error <= 1e-9
+    # acl (the default: the compiled router, per-process rights) and auth (credentials only, the launcher's router)
+    for level in ("acl", "auth"):
+        error, tally = _verify_with_outsider(level)
+        print(f"{level}: max_position_error={error:.2e}, outsider {tally}")
+        assert tally.get("attempts", 0) >= 3 and tally["connected"] == 0 and tally["forged"] == 0
+        assert error <= 1e-9
     # The same outsider against an open router (as before issue 18) connects and breaks exactness.
     error_open, tally_open = _verify_with_outsider("none")
     print(f"open router: max_position_error={error_open:.2e}, outsider {tally_open}")

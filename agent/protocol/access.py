@@ -39,10 +39,11 @@ from agent.protocol.acl import acl_config, agent_id_of
 
 USER_ENV = "FLUIDSWARM_ZENOH_USER"
 PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
-# The embedded router's protection (docs/security.md): "auth" (default) fresh credentials per process, so no
-# outsider can open a session; "acl" also per-process rights (each agent publishes only under its own id, on its
-# id key; the embedded router is then the compiled one with the state relay, agent/router_process.py: ~5 % fewer
-# steps/s on the mean, docs/benchmarks/security.md); "none" an open router as before issue 18.
+# The embedded router's protection (docs/security.md): "acl" (default) fresh credentials per process and
+# per-process rights (each agent publishes only under its own id, on its id key; the embedded router is the
+# compiled one with the state relay, agent/router_process.py: ~5 % fewer steps/s than an open router on the mean,
+# docs/benchmarks/security.md); "auth" credentials only, so no outsider can open a session (the launcher's own
+# zenoh-python session is the router); "none" an open router as before issue 18 (measurements only).
 LEVEL_ENV = "FLUIDSWARM_ACCESS"
 # A launcher that connects to a multi-host run's router reads its processes' credentials from this users file
 # (the routers hold the same file; docs/multi-host.md)
@@ -79,7 +80,7 @@ def credential_from_env(environ=os.environ) -> Credential | None:
 
 
 def level() -> str:
-    value = os.environ.get(LEVEL_ENV, "auth")
+    value = os.environ.get(LEVEL_ENV, "acl")
     if value not in LEVELS:
         raise ValueError(f"{LEVEL_ENV}={value!r}: expected one of {', '.join(LEVELS)}")
     return value
