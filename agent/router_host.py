@@ -2,7 +2,9 @@
 
 With an embedded router the local agents link to it over TCP loopback or a unix socket (AGENT_LINK), and
 the router gets the run's fresh credentials and per-process rights (agent/protocol/access.py,
-docs/security.md); as a client the launcher uses the credentials it was given.
+docs/security.md); as a client the launcher uses the credentials it was given. Under per-process rights (level
+acl, the default) the embedded router is the compiled one with the state relay (agent/router_process.py) and
+the launcher is its client; at auth and none it is the launcher's own zenoh-python session.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ class RouterHost:
     def __init__(self, run: str, connect: str | None = None, listen: str | None = None, user: str = "",
                  password: str = "", auth_file: str = ""):
         self._socket_dir = None
-        self.process: RouterProcess | None = None  # the compiled router, at level acl
+        self.process: RouterProcess | None = None  # the compiled embedded router (per-process rights)
         if connect:
             self.endpoint = self.agent_endpoint = connect
             self.access = LaunchAccess.client(user, password, auth_file)  # docs/security.md
