@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import shutil
 import subprocess
 import tempfile
@@ -24,6 +25,7 @@ from agent.executable import router_executable
 
 CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
 CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_main.rs)
+START_TIMEOUT = 60.0  # s until it listens (with the rules of 1280 users it opens in ~1 s here)
 
 
 class RouterFailed(RuntimeError):
@@ -36,6 +38,7 @@ class RouterProcess:
 
     def __init__(self, run: str, settings: dict):
         private = tempfile.mkdtemp(prefix="fluidswarm-router-")  # mode 0700
+        errors = None
         try:
             path = os.path.join(private, "router.json")
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
@@ -45,16 +48,34 @@ class RouterProcess:
             self.proc = subprocess.Popen([router_executable(), run], env=dict(os.environ, **{CONFIG_ENV: path}),
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=errors, text=True,
                                          bufsize=1)
-            first = self.proc.stdout.readline().strip()
-            if first != "ready":
-                self.proc.wait()
-                errors.seek(0)
-                why = errors.read().strip().splitlines()
-                raise RouterFailed(why[-1] if why else f"fluidswarm-router exited with code {self.proc.returncode}")
+            try:
+                # Bounded: a router stuck opening reads no stdin, so the launcher's end would not end it.
+                ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT)
+                first = self.proc.stdout.readline().strip() if ready else ""
+                if first != "ready":
+                    self._kill()
+                    errors.seek(0)
+                    why = errors.read().strip().splitlines()
+                    raise RouterFailed(why[-1] if why else
+                                       f"fluidswarm-router did not say ready within {START_TIMEOUT:g} s "
+                                       f"(exit code {self.proc.returncode})")
+            except BaseException:  # also Ctrl-C while it opens: never left behind
+                self._kill()
+                raise
         finally:
+            if errors is not None:
+                errors.close()
             shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
         self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
         self.relay = CompiledRelay(self)
+
+    def _kill(self) -> None:
+        """End a router that failed to start, and let go of its pipes."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.proc.stdin.close()
+        self.proc.stdout.close()
 
     def ask(self, request: str) -> str:
         """Send one request line, return the router's answer line."""

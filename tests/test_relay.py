@@ -98,6 +98,24 @@ def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_c
     assert leftovers == []  # its configuration (it names the users file, holds the rules) is removed
 
 
+def test_a_router_that_never_says_ready_is_killed_and_named(tmp_path, monkeypatch):
+    import agent.router_process as router_process
+
+    hung = tmp_path / "hung-router"  # stands in for a router stuck opening: it never reads its stdin
+    hung.write_text("#!/bin/sh\nexec sleep 30\n")
+    hung.chmod(0o755)
+    monkeypatch.setenv("FLUIDSWARM_ROUTER_BIN", str(hung))
+    monkeypatch.setattr(router_process, "START_TIMEOUT", 0.5)
+    spawned = []
+    real_popen = router_process.subprocess.Popen
+    monkeypatch.setattr(router_process.subprocess, "Popen", lambda *a, **k: spawned.append(real_popen(*a, **k)) or spawned[-1])
+    t = time.monotonic()
+    with pytest.raises(RouterFailed, match="did not say ready within 0.5 s"):
+        RouterProcess(RUN, router_config_dict([f"tcp/127.0.0.1:{free_port()}"]))
+    assert time.monotonic() - t < 5
+    assert spawned and spawned[0].poll() is not None  # killed, not left behind
+
+
 def test_the_relays_peek_rejects_what_decode_state_rejects_for_the_header_and_position():
     good = record(7, 1.0, 2.0, step=4)
     assert peek_id_position(good) == ((7, 1.0, 2.0), None)
