@@ -31,7 +31,6 @@ from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
 from agent.recorder_process import RecorderProcess
-from agent.relay import StateRelay
 from agent.router_host import RouterHost
 from agent.sph.particle import Control, initial_state
 from agent.supervisor import Supervisor, Swarm
@@ -95,11 +94,7 @@ class Launcher:
             self.router.close()
             raise
         self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
-        # Under per-process rights agents put states on their id keys; the relay puts them on the cells: the
-        # compiled router's own (an embedded router), else one on this launcher's session (a client)
-        self.relay = self.router.relay
-        if self.relay is None and self.access.state_key_ids:
-            self.relay = StateRelay(self.session, self.run)
+        self.relay = self.router.relay  # under per-process rights: agents' id keys -> cell keys
         self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet,
                                         self.access.state_key_ids)
         self.closed = False

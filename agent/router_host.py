@@ -19,6 +19,7 @@ import zenoh
 
 from agent.protocol.access import LaunchAccess
 from agent.protocol.session import client_config, router_config, router_config_dict
+from agent.relay import StateRelay
 from agent.router_process import RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
@@ -33,7 +34,8 @@ def free_port() -> int:
 
 class RouterHost:
     """`endpoint`: where other processes and hosts connect; `agent_endpoint`: where this host's agents
-    connect; `access`: the credentials handed to each process; `session`: the launcher's own session."""
+    connect; `access`: the credentials handed to each process; `session`: the launcher's own session;
+    `relay`: the state relay under per-process rights (agent/relay.py's interface), None without them."""
 
     def __init__(self, run: str, connect: str | None = None, listen: str | None = None, user: str = "",
                  password: str = "", auth_file: str = ""):
@@ -54,29 +56,28 @@ class RouterHost:
                 self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
                 listeners.append(self.agent_endpoint)
             self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
-            if self.access.state_key_ids:
+        try:
+            if not connect and self.access.state_key_ids:
                 # Per-process rights: every state passes the relay, which runs inside a compiled router
                 # (agent/router_process.py); the launcher is its client.
-                try:
-                    self.process = RouterProcess(run, router_config_dict(
-                        listeners, dictionary_file=self.access.users_file, acl=self.access.acl))
-                finally:
-                    self.access.opened()
+                self.process = RouterProcess(run, router_config_dict(
+                    listeners, dictionary_file=self.access.users_file, acl=self.access.acl))
                 conf = client_config([self.endpoint], *astuple(self.access.own))
-            else:
+            elif not connect:
                 conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
-        try:
             self.session = zenoh.open(conf)
         except BaseException:
             self.close_process()
             raise
         finally:
-            self.access.opened()
-
-    @property
-    def relay(self):
-        """The compiled router's relay (agent/router_process.py), None without one."""
-        return self.process.relay if self.process is not None else None
+            self.access.opened()  # the router has read the users file (or failed to)
+        # Under per-process rights agents put their states on their id keys and the relay puts them on the
+        # cells: the compiled router's own, else (a client of another host's router) one on this session
+        self.relay = None
+        if self.process is not None:
+            self.relay = self.process.relay
+        elif self.access.state_key_ids:
+            self.relay = StateRelay(self.session, run)
 
     def close_process(self) -> None:
         if self.process is not None:

@@ -67,10 +67,11 @@ class RouterProcess:
                 errors.close()
             shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
         self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
+        self._last_rejected: dict[str, int] = {}  # the relay's counts when the router closed
         self.relay = CompiledRelay(self)
 
     def _kill(self) -> None:
-        """End a router that failed to start, and let go of its pipes."""
+        """End the router now (it failed to start, or to close), and let go of its pipes."""
         if self.proc.poll() is None:
             self.proc.kill()
         self.proc.wait()
@@ -90,12 +91,22 @@ class RouterProcess:
             raise RouterFailed(f"fluidswarm-router stopped (exit code {self.proc.poll()})")
         return answer.strip()
 
+    def rejected(self) -> dict[str, int]:
+        """Reason -> states the relay dropped so far; once the router is closed, its last counts."""
+        if self.proc.stdin.closed:
+            return dict(self._last_rejected)
+        answer = self.ask("rejected")
+        words = answer.split()
+        if not words or words[0] != "rejected":
+            raise RouterFailed(f"fluidswarm-router: unexpected answer {answer!r}")
+        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+
     def close(self) -> None:
         """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent. The
-        relay's last counts stay readable (`relay.rejected`)."""
+        relay's last counts stay readable (`rejected`)."""
         if self.proc.poll() is None and not self.proc.stdin.closed:
             try:
-                self.relay.last = self.relay.rejected
+                self._last_rejected = self.rejected()
             except RouterFailed:
                 pass
         with self._lock:
@@ -106,9 +117,8 @@ class RouterProcess:
         try:
             self.proc.wait(CLOSE_TIMEOUT)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        self.proc.stdout.close()
+            pass
+        self._kill()
 
 
 class CompiledRelay:
@@ -116,7 +126,6 @@ class CompiledRelay:
 
     def __init__(self, router: RouterProcess):
         self._router = router
-        self.last: dict[str, int] = {}  # the counts when the router closed
 
     def add(self, agent_id: int, cell: float) -> None:
         """Relay agent `agent_id`'s states from now on (the router answers once its table holds it, so call
@@ -129,13 +138,7 @@ class CompiledRelay:
     def rejected(self) -> dict[str, int]:
         """Reason -> states the relay dropped so far (the reasons of agent/relay.py); after the router closed,
         its last counts."""
-        if self._router.proc.stdin.closed:
-            return dict(self.last)
-        answer = self._router.ask("rejected")
-        words = answer.split()
-        if not words or words[0] != "rejected":
-            raise RouterFailed(f"fluidswarm-router: unexpected answer {answer!r}")
-        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+        return self._router.rejected()
 
     def close(self) -> None:
         pass  # the relay ends with its router

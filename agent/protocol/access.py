@@ -196,9 +196,9 @@ class LaunchAccess:
         key = RunKey()
         creds = key.users(AGENT_CAPACITY)
         acl = acl_config([c.user for c in creds]) if lvl == "acl" else None
-        # At acl the launcher is a client of its (compiled) router: its own credentials
-        own = key.credential("launcher") if acl is not None else None
-        return cls(key.credential, own=own, users_file=UsersFile(creds), acl=acl, capacity=AGENT_CAPACITY)
+        # `own`: at acl the launcher is a client of its (compiled) router, with the launcher's credentials
+        return cls(key.credential, own=key.credential("launcher"), users_file=UsersFile(creds), acl=acl,
+                   capacity=AGENT_CAPACITY)
 
     @classmethod
     def client(cls, user: str = "", password: str = "", users_file: str = "") -> "LaunchAccess":

@@ -34,6 +34,11 @@ pub fn id_of_chunk(chunk: &str) -> Option<u32> {
     Some(id)
 }
 
+/// Run names become one key chunk: letters, digits, '-' and '_' only (agent/protocol/keys.py: valid_run_name).
+pub fn valid_run_name(run: &str) -> bool {
+    (1..=64).contains(&run.len()) && run.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+}
+
 pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
     ((x / cell).floor() as i64, (y / cell).floor() as i64)
 }

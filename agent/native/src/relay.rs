@@ -23,9 +23,9 @@ use crate::wire;
 /// Reasons a state is not relayed, in the order the counters are reported: the record's own faults (as
 /// wire::decode_state names them), a record naming another agent than its key (`id`: the key's owner forged
 /// it), a put on a wildcard key (`key`: it names no agent; the router's deny rules cannot name every wildcard).
-pub const REASONS: [&str; 5] = [wire::REJECT_LENGTH, wire::REJECT_VERSION, wire::REJECT_VALUE, "id", "key"];
 pub const REJECT_ID: &str = "id";
 pub const REJECT_KEY: &str = "key";
+pub const REASONS: [&str; 5] = [wire::REJECT_LENGTH, wire::REJECT_VERSION, wire::REJECT_VALUE, REJECT_ID, REJECT_KEY];
 
 /// Which agents are relayed and on which cells: filled by the launcher (`add`) before each agent starts, read
 /// by the relay for every state.

@@ -34,7 +34,7 @@ fn main() {
     unsafe { libc::signal(libc::SIGINT, libc::SIG_IGN) };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let run = match args.as_slice() {
-        [run] if !run.is_empty() && run.len() <= 64 && run.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_') => run.clone(),
+        [run] if keys::valid_run_name(run) => run.clone(),
         _ => fail("usage: fluidswarm-router RUN (a run name: 1-64 letters, digits, '-' or '_'), configuration in $FLUIDSWARM_ROUTER_CONFIG"),
     };
     let path = std::env::var(CONFIG_ENV).unwrap_or_else(|_| fail(&format!("{CONFIG_ENV} is not set")));

@@ -8,7 +8,7 @@ use serde_json::Value;
 
 use crate::keys;
 use crate::sph::{Control, Params};
-use fields::{err, number, only, parse_control, parse_neighbours, parse_params, positive, string, valid_run_name};
+use fields::{err, number, only, parse_control, parse_neighbours, parse_params, positive, string};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
@@ -64,7 +64,7 @@ impl AgentSpec {
             }
         }
         let run = match obj.get("run").and_then(|v| v.as_str()) {
-            Some(r) if valid_run_name(r) => r.to_string(),
+            Some(r) if keys::valid_run_name(r) => r.to_string(),
             _ => return err(format!("run {} must be 1-64 letters, digits, '-' or '_'", obj["run"])),
         };
         let id = match obj["id"].as_u64() {

@@ -59,10 +59,6 @@ pub(super) fn parse_neighbours(v: Option<&Value>) -> Result<Vec<(u32, f64, f64)>
         .collect()
 }
 
-pub(super) fn valid_run_name(run: &str) -> bool {
-    (1..=64).contains(&run.len()) && run.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
-}
-
 pub(super) fn parse_params(v: Option<&Value>) -> Result<Params, String> {
     let mut p = Params::default();
     let obj = match v {
