@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from agent.protocol.errors import UserError
-from fluidswarm.bench_record import BenchRecord, FailedRun, Formation, LockstepRun, Machine
+from fluidswarm.bench_record import (BenchRecord, BenchRecordError, FailedRun, Formation, LockstepRun, Machine,
+                                     with_readme_section)
 
 FULL_NS = (25, 50, 100, 200, 300, 1000)
 FIT_MAX_N = 300  # the step-time exponent is fitted over N <= 300 (issue 14); N = 1000 is recorded beside it
@@ -40,6 +41,9 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true",
                    help="print the bench's record (fluidswarm/bench_record.py BenchRecord, the object of results.json) "
                         "as one JSON object instead of key=value lines")
+    p.add_argument("--readme", metavar="README", nargs="?", const="README.md",
+                   help="measure nothing: rewrite the benchmark figures of README (default: %(const)s) from "
+                        "OUT/results.json")
     p.set_defaults(func=run)
 
 
@@ -242,7 +246,26 @@ def print_lines(record: BenchRecord, results: Path) -> None:
     print(f"results={results}")
 
 
+def write_readme(readme: Path, results: Path) -> None:
+    """README's benchmark figures rewritten from `results` (a BenchRecord); UserError naming the bad file."""
+    try:
+        record = BenchRecord.load(results)
+        text = readme.read_text()
+    except OSError as exc:
+        raise UserError(f"cannot read {exc.filename}: {exc.strerror}") from None
+    except BenchRecordError as exc:
+        raise UserError(str(exc)) from None
+    try:
+        readme.write_text(with_readme_section(text, record, FIT_MAX_N))
+    except ValueError as exc:
+        raise UserError(f"{readme}: {exc}") from None
+    print(f"readme={readme} results={results}")
+
+
 def run(args) -> int:
+    if args.readme:
+        write_readme(Path(args.readme), Path(args.out) / "results.json")
+        return 0
     if args.ns:
         try:
             ns = tuple(int(v) for v in args.ns.split(","))
