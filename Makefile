@@ -13,7 +13,9 @@ AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/
 
 .PHONY: demo test install clean bench agent
 
-$(STAMP): pyproject.toml
+# The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
+# agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
+$(STAMP): pyproject.toml setup.py
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'

@@ -22,6 +22,7 @@ import numpy as np
 from agent.protocol.errors import UserError
 from fluidswarm.bench_record import (BenchRecord, BenchRecordError, FailedRun, Formation, LockstepRun, Machine,
                                      with_readme_section)
+from fluidswarm.scenario import scenarios_dir
 
 FULL_NS = (25, 50, 100, 200, 300, 1000)
 FIT_MAX_N = 300  # the step-time exponent is fitted over N <= 300 (issue 14); N = 1000 is recorded beside it
@@ -119,8 +120,7 @@ def fit_exponent(runs: list[LockstepRun | FailedRun]) -> float | None:
 
 def gesture_image(cls: str) -> Path | None:
     """The shipped photograph of a class if the repository has one, else the shared set's."""
-    here = Path(__file__).resolve().parent.parent
-    cands = sorted((here / "scenarios" / "inputs").glob(f"digit{cls}_*"))
+    cands = sorted((scenarios_dir() / "inputs").glob(f"digit{cls}_*"))
     return cands[0] if cands else None
 
 
@@ -158,7 +158,7 @@ def region_controller_timing() -> dict:
     from coordinator.control.region import fit_transform
     from perception.io import load_frames
 
-    inputs = Path(__file__).resolve().parent.parent / "scenarios" / "inputs"
+    inputs = scenarios_dir() / "inputs"
     out = {}
     for key, path in (("region_controller_ms_per_video_frame", inputs / "weizmann_wave2_person0.png"),
                       ("region_controller_ms_per_hand_photo", inputs / "digit2_IMG_1140.JPG")):

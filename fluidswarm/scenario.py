@@ -19,6 +19,27 @@ from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROL
 CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
 SYNC_MODES = MODES
 FAILURE_KINDS = ("kill", "freeze", "drop", "kill_coordinator", "late_join")
+# The scenario files stay at the top level (scenarios/); a wheel carries them, their inputs with them, as the
+# package data of this package (pyproject.toml: package-dir and package-data of "fluidswarm.scenarios").
+PACKAGED_SCENARIOS = "fluidswarm.scenarios"
+
+
+def scenarios_dir() -> Path:
+    """The shipped scenario files: the installed package data (site-packages/fluidswarm/scenarios), else the
+    source tree's top-level scenarios/ (a checkout or an editable install)."""
+    here = Path(__file__).resolve().parent
+    installed = here / PACKAGED_SCENARIOS.rpartition(".")[2]
+    return installed if installed.is_dir() else here.parent / "scenarios"
+
+
+def find_scenario(path: str | Path) -> Path:
+    """`path` if it exists; else a shipped scenario of that name (`NAME`, `NAME.toml` or `scenarios/NAME.toml`,
+    so the commands of docs/scenarios.md work from any folder once installed); else `path` itself."""
+    path = Path(path)
+    if path.exists() or path.is_absolute() or path.parent not in (Path("."), Path("scenarios")):
+        return path
+    shipped = scenarios_dir() / (path.name if path.suffix == ".toml" else path.name + ".toml")
+    return shipped if shipped.is_file() else path
 
 
 class Experiment(StrEnum):
@@ -80,7 +101,7 @@ class Scenario:
     name: str
     path: Path
     experiment: str = "imitate"
-    input: str = ""  # image, folder of frames or video; relative to the scenario file or the repo
+    input: str = ""  # image, folder of frames or video; relative to the scenario file, its folder's parent or cwd
     frame: int = -1  # which frame of a clip/folder to imitate (-1: the first; see frame_steps)
     frame_steps: int = 0  # > 0: a gesture sequence, every frame shown for this many steps (thesis ch. 5)
     controller: str = "fill"
@@ -127,12 +148,12 @@ def _check_keys(file: str, where: str, table: dict, allowed) -> None:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    path = Path(path)
+    path = find_scenario(path)
     file = str(path)
     try:
         raw = tomllib.loads(path.read_text())
     except FileNotFoundError:
-        raise UserError(f"{file}: no such scenario file") from None
+        raise UserError(f"{file}: no such scenario file (the shipped ones, run by name: {scenarios_dir()})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{file}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:

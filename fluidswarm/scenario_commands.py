@@ -11,18 +11,17 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario
+from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario, scenarios_dir
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
 
-REPO = Path(__file__).resolve().parent.parent
-DEMO_SCENARIO = REPO / "scenarios" / "demo_v_sign.toml"
+DEMO_SCENARIO = "demo_v_sign.toml"  # one of the shipped scenarios (scenario.scenarios_dir)
 
 
 def register(sub) -> None:
     p = sub.add_parser("run", help="run a scenario file: router, agents, coordinator, recorder, failures, summary")
-    p.add_argument("scenario", help="scenarios/NAME.toml")
+    p.add_argument("scenario", help="scenarios/NAME.toml (a file, or the name of a shipped scenario)")
     p.add_argument("--agents", type=int, help="override the scenario's number of agents")
     p.add_argument("--out", help="output folder (default: out/<scenario name>)")
     p.add_argument("--sync", choices=SYNC_MODES, help="override the scenario's synchronisation mode")
@@ -203,5 +202,5 @@ def _run(args) -> int:
 
 
 def _demo(args) -> int:
-    sc = load_scenario(DEMO_SCENARIO)
+    sc = load_scenario(scenarios_dir() / DEMO_SCENARIO)
     return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args)))
