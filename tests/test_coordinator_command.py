@@ -16,7 +16,7 @@ import pytest
 
 from coordinator.control.route import CommandFollower, RouteFollower, class_counts, class_of
 from agent.sph.particle import NFIELDS, X, Y, Control
-from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode
+from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode, verify
 from coordinator.control.imitation_setup import prepare_input
 from coordinator.process import commands_for_frames
 from tests.swarm_helpers import PER_PARTICLE, field_names
@@ -27,9 +27,13 @@ ALLOWED = {"v", "body", "sig", "seq", "gesture", "n_agents", "classes", "beta", 
            "x", "y", "r", "s", "alpha"}
 
 
-def sign(body: dict, secret: bytes) -> bytes:
-    b = _canonical(body)
+def sign_raw(b: bytes, secret: bytes) -> bytes:
+    """The envelope around exactly these body bytes, signed over them."""
     return b'{"v":1,"body":' + b + b',"sig":"' + hmac.new(secret, b, hashlib.sha256).hexdigest().encode() + b'"}'
+
+
+def sign(body: dict, secret: bytes) -> bytes:
+    return sign_raw(_canonical(body), secret)
 
 
 @pytest.fixture(scope="module")
@@ -159,3 +163,34 @@ def test_command_follower_rejects_and_changes_nothing(commands):
     c = follower.control(state, 2)
     assert follower.particle_class == class_of(3, 30, [k.share for k in im.command.classes])
     assert c != before and follower.report()["commands_accepted"] == 1
+
+
+def test_the_signature_covers_the_bytes_sent(commands):
+    """The HMAC is over the body's bytes on the wire, checked before they are read: the same body written with
+    other whitespace under the coordinator's signature is a forgery, not the same command; signed over its own
+    bytes it is a command with equal fields, which a follower holding the original takes as a replay (only the
+    very same bytes are a republication)."""
+    cmd = commands["v", "region"].command
+    secret = os.urandom(32)
+    sent = cmd.encode(secret)
+    body, sig = sent[len(b'{"v":1,"body":'):-74], sent[-66:-2]
+    assert verify(sent, secret) == body == _canonical(cmd.body())
+    spaced = json.dumps(json.loads(body), sort_keys=True, indent=1).encode()
+    assert json.loads(spaced) == json.loads(body) and spaced != body
+    for forged in (b'{"v":1,"body":' + spaced + b',"sig":"' + sig + b'"}',
+                   b'{"v":1,"body":' + body + b' ,"sig":"' + sig + b'"}'):
+        with pytest.raises(CommandRejected) as exc:
+            decode(forged, secret)
+        assert exc.value.reason == "signature"
+    resigned = sign_raw(spaced, secret)
+    assert decode(resigned, secret) == cmd
+    # verified before parsing: a forged envelope whose body is no JSON is a forgery; signed, it is malformed
+    for data, reason in ((b'{"v":1,"body":not json,"sig":"' + sig + b'"}', "signature"),
+                         (sign_raw(b"not json", secret), "malformed")):
+        with pytest.raises(CommandRejected) as exc:
+            decode(data, secret)
+        assert exc.value.reason == reason
+    spec = SimpleNamespace(id=3, secret=secret.hex(), static_control=lambda: Control(beta=2.0, mu=0.2))
+    follower = CommandFollower(spec)
+    assert [follower.offer(p) for p in (sent, sent, resigned, sent)] == [None, None, "replay", None]
+    assert follower.accepted == 1

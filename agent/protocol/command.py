@@ -2,9 +2,10 @@
 
 A command holds particle classes (each a share of the swarm and a route of waypoints with the body-force
 parameters of eq. 6.2, and optional stiffness/viscosity switches), the swarm size the shares refer to,
-and nothing per particle. The envelope is JSON: {"v": 1, "body": {...}, "sig": HMAC-SHA256(secret,
-canonical body) in hex}. The secret is made by the launcher per run and handed to the coordinator and
-the agents at start (environment), never sent on the bus.
+and nothing per particle. The envelope is `{"v":1,"body":` BODY `,"sig":"` HMAC-SHA256(secret, BODY) in hex
+`"}`: the signature covers the body's bytes as sent, so a receiver checks it before reading any JSON. The
+secret is made by the launcher per run and handed to the coordinator and the agents at start (environment),
+never sent on the bus.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ MAX_COORD = 1e6
 MAX_RINGS = 32
 MAX_VERTICES = 512  # over all rings of a fill shape: the crossing check is O(V^2) in every agent
 MAX_ZONES = 16  # material zones of a fill shape (fingers, arms)
+MAX_DEPTH = 32  # nested arrays/objects, the body counting 1: a command nests 5 deep, its annotations a few more
 
 
 class CommandRejected(ValueError):
@@ -112,16 +114,19 @@ class GestureCommand:
     def encode(self, secret: bytes) -> bytes:
         body = _canonical(self.body())
         sig = hmac.new(secret, body, hashlib.sha256).hexdigest()
-        return b'{"v":1,"body":' + body + b',"sig":"' + sig.encode() + b'"}'
+        return _V1 + body + _SIG_KEY + sig.encode() + _TAIL_END
 
 
-_HEAD = b'{"v":1,"body":'
+_HEAD = b'{"v":'
+_V1 = b'{"v":1,"body":'
 _SIG_KEY = b',"sig":"'
 _TAIL_END = b'"}'
 _TAIL_LEN = len(_SIG_KEY) + 64 + len(_TAIL_END)
 
 
 def _canonical(obj) -> bytes:
+    """The one encoding of a body: keys sorted, no spaces, ASCII only, no NaN (deterministic, so the same
+    command is the same bytes and its republication is recognised without decoding)."""
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
 
 
@@ -157,38 +162,66 @@ def _finite(text: str) -> float:
     return v
 
 
-def decode(data: bytes, secret: bytes) -> GestureCommand:
-    """Verify and parse an envelope from the network; raise CommandRejected with the reason."""
+def _int(text: str):
+    """A JSON integer as the compiled agent's serde_json reads it: -0 is the float -0.0 (so it is no valid
+    `seq`), and one that no binary64 holds (beyond ~1.8e308) is refused."""
+    if text == "-0":
+        return -0.0
+    v = int(text)
+    float(v)  # OverflowError (an ArithmeticError, not a ValueError): caught in `decode`
+    return v
+
+
+def _plain(v, depth: int = 1) -> None:
+    """What serde_json refuses and Python's json accepts: a lone surrogate (no UTF-8 holds it) in a string or
+    a key; and, on both sides, containers nested deeper than MAX_DEPTH."""
+    if isinstance(v, str):
+        v.encode()  # UnicodeEncodeError (a ValueError) on a lone surrogate
+    elif isinstance(v, (dict, list)):
+        if depth > MAX_DEPTH:
+            raise ValueError(f"nested deeper than {MAX_DEPTH}")
+        for k in v if isinstance(v, dict) else ():
+            k.encode()
+        for x in v.values() if isinstance(v, dict) else v:
+            _plain(x, depth + 1)
+
+
+def verify(data: bytes, secret: bytes) -> bytes:
+    """The body bytes of an envelope, once their HMAC matches; raise CommandRejected, reading no JSON.
+
+    The envelope is exactly `{"v":1,"body":` BODY `,"sig":"` HMAC-SHA256(secret, BODY) in hex `"}`, as `encode`
+    writes it: a forgery costs the receiver one HMAC, and no second parser has to agree with the first."""
     if not isinstance(data, (bytes, bytearray)) or len(data) > MAX_BYTES:
         raise CommandRejected("malformed", "too large or not bytes")
     data = bytes(data)
-    if data.startswith(_HEAD) and data[-len(_TAIL_END):] == _TAIL_END and data[-_TAIL_LEN:-66] == _SIG_KEY:
-        # The envelope as `encode` writes it: check the HMAC over the raw body bytes before parsing
-        # anything, so a flood of forged commands costs an agent microseconds each, not a JSON parse.
-        expected = hmac.new(secret, data[len(_HEAD):-_TAIL_LEN], hashlib.sha256).hexdigest().encode()
-        if not hmac.compare_digest(expected, data[-66:-2]):
-            raise CommandRejected("signature")
-    try:
-        # NaN/Infinity (and numbers that overflow to them) are not JSON numbers
-        env = json.loads(data, parse_constant=_no_constant, parse_float=_finite)
-    except (ValueError, UnicodeDecodeError, RecursionError):
-        raise CommandRejected("malformed", "not JSON") from None
-    _only(env, {"v", "body", "sig"}, "envelope")
-    if env.get("v") != VERSION:
-        raise CommandRejected("version", f"v={env.get('v')!r}")
-    body, sig = env.get("body"), env.get("sig")
-    if not isinstance(body, dict) or not isinstance(sig, str):
-        raise CommandRejected("malformed", "body/sig missing")
-    if len(sig) != 64 or not sig.isascii():
-        raise CommandRejected("signature", "not a hex HMAC-SHA256")
-    try:
-        canonical = _canonical(body)
-    except (ValueError, TypeError, RecursionError):
-        raise CommandRejected("malformed", "body not canonical JSON") from None
-    expected = hmac.new(secret, canonical, hashlib.sha256).hexdigest()
-    if not hmac.compare_digest(expected, sig):
+    if not data.startswith(_V1):
+        end = data.find(b",", len(_HEAD)) if data.startswith(_HEAD) else -1
+        v = data[len(_HEAD):end] if end >= 0 else b""
+        if v.isdigit() and v != b"1":
+            raise CommandRejected("version", f"v={v[:20].decode()}")
+        raise CommandRejected("malformed", 'not an envelope {"v":1,"body":...,"sig":"..."}')
+    n = len(data)
+    if n < len(_V1) + _TAIL_LEN or data[n - _TAIL_LEN:n - 66] != _SIG_KEY or data[n - 2:] != _TAIL_END:
+        raise CommandRejected("signature", "unsigned, or not a hex HMAC-SHA256")
+    body = data[len(_V1):n - _TAIL_LEN]
+    expected = hmac.new(secret, body, hashlib.sha256).hexdigest().encode()
+    if not hmac.compare_digest(expected, data[n - 66:n - 2]):
         raise CommandRejected("signature")
-    return parse_body(body)
+    return body
+
+
+def decode(data: bytes, secret: bytes) -> GestureCommand:
+    """Verify and parse an envelope from the network; raise CommandRejected with the reason.
+
+    The body is JSON (RFC 8259) in UTF-8, read as serde_json reads it in the compiled agent: no NaN/Infinity,
+    no number beyond binary64 (a float or an integer), no lone surrogate, at most MAX_DEPTH deep."""
+    body = verify(data, secret)
+    try:
+        obj = json.loads(body.decode("utf-8"), parse_constant=_no_constant, parse_float=_finite, parse_int=_int)
+        _plain(obj)
+    except (ValueError, ArithmeticError, RecursionError) as exc:  # UnicodeError is a ValueError
+        raise CommandRejected("malformed", f"not JSON: {str(exc)[:80]}") from None
+    return parse_body(obj)
 
 
 def parse_body(body: dict) -> GestureCommand:

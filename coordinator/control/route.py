@@ -124,6 +124,7 @@ class CommandFollower:
     def offer(self, payload: bytes) -> str | None:
         # The coordinator republishes the current command every 0.2 s, and a captured old command replayed
         # is the same bytes again: both are settled without decoding (a flood must not starve the agent).
+        # The one encoder writes a command as one string of bytes, so only those bytes are a republication.
         if payload == self._current_payload:
             return None
         if payload in self._replays:
@@ -133,9 +134,7 @@ class CommandFollower:
         except CommandRejected as exc:
             return exc.reason
         newest = self.pending or self.command
-        if newest is not None and cmd.seq <= newest.seq:
-            if cmd.seq == newest.seq and cmd == newest:
-                return None
+        if newest is not None and cmd.seq <= newest.seq:  # other bytes than the newest's (checked above)
             if len(self._replays) < 64:  # authentic but old: it stays a replay (seq only grows)
                 self._replays.add(bytes(payload))
             return "replay"

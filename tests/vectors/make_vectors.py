@@ -11,7 +11,6 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
     route.json              coordinator.control.route.class_counts/class_of and RouteFollower controls
     fill.json               agent.fill.inside/nearest_point and FillFollower controls, and
                             agent.protocol.command.edges_cross
-    float_repr.json         Python's repr(float), which the canonical command body uses
     ctl.json                agent.protocol.ctl.decode_ctl: the launcher's ctl/<what> payloads, decoded or dropped
     events.json             agent.protocol.events.decode_event: agent events, decoded or dropped
 
@@ -36,11 +35,10 @@ from make.ctl import ctl_vectors  # noqa: E402
 from make.events import event_vectors  # noqa: E402
 from make.common import SECRET  # noqa: E402
 from make.fill import fill_vectors  # noqa: E402
-from make.float_repr import float_reprs  # noqa: E402
 from make.route import route_vectors  # noqa: E402
 from make.state_records import state_vectors  # noqa: E402
 
-__all__ = ["command_vectors", "ctl_vectors", "event_vectors", "fill_vectors", "float_reprs", "follower_sequences", "route_vectors", "state_vectors"]
+__all__ = ["command_vectors", "ctl_vectors", "event_vectors", "fill_vectors", "follower_sequences", "route_vectors", "state_vectors"]
 
 
 def main() -> None:
@@ -51,7 +49,6 @@ def main() -> None:
     write("command_sequences.json", {"secret_hex": SECRET.hex(), "sequences": follower_sequences(payloads)})
     write("route.json", route_vectors())
     write("fill.json", fill_vectors())
-    write("float_repr.json", float_reprs())
     write("ctl.json", ctl_vectors())
     write("events.json", event_vectors())
 

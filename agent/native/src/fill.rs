@@ -11,6 +11,21 @@
 /// A ring of (x, y) vertices [m], closed implicitly (the last vertex joins the first).
 pub type Ring = Vec<(f64, f64)>;
 
+/// A material zone of the shape (agent/protocol/command.py `Zone`, sent in the command's `fill`): an ellipse
+/// with centre (x, y) [m], unit major axis (ux, uy) and semi-axes a, b [m]; an agent inside it uses `beta`
+/// and `mu`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Zone {
+    pub x: f64,
+    pub y: f64,
+    pub ux: f64,
+    pub uy: f64,
+    pub a: f64,
+    pub b: f64,
+    pub beta: f64,
+    pub mu: f64,
+}
+
 /// `inside`: the even-odd rule over every edge of every ring (a ring inside another ring is a hole).
 pub fn inside(rings: &[Ring], x: f64, y: f64) -> bool {
     let mut odd = false;
@@ -138,7 +153,7 @@ mod tests {
 }
 
 /// `zone_material`: (beta, mu) of the first zone (an ellipse) that holds (x, y); the given ones where none does.
-pub fn zone_material(zones: &[crate::command::Zone], x: f64, y: f64, beta: f64, mu: f64) -> (f64, f64) {
+pub fn zone_material(zones: &[Zone], x: f64, y: f64, beta: f64, mu: f64) -> (f64, f64) {
     for z in zones {
         let (dx, dy) = (x - z.x, y - z.y);
         let p = (dx * z.ux + dy * z.uy) / z.a;

@@ -1,8 +1,7 @@
 //! The Rust codecs against the shared test vectors in tests/vectors/ (made from the Python codecs by
 //! tests/vectors/make_vectors.py; tests/test_vectors.py checks Python against the same files).
 //!
-//! The files are read with the crate's own JSON reader (`command::parse`, which reads floats correctly
-//! rounded, unlike serde_json's default) and then handled as serde_json values; floats compare bit for bit.
+//! The files are read as serde_json values (floats correctly rounded); floats compare bit for bit.
 
 mod common;
 
@@ -262,17 +261,5 @@ fn fill_edges_cross() {
     let file = load("fill.json");
     for (k, case) in file["edges_cross"].as_array().unwrap().iter().enumerate() {
         assert_eq!(Value::Bool(edges_cross(&rings(&case["rings"]))), case["cross"], "case {k}: {}", case["rings"]);
-    }
-}
-
-#[test]
-fn float_repr() {
-    let file = load("float_repr.json");
-    let cases = file.as_array().unwrap();
-    assert!(cases.len() > 800);
-    for case in cases {
-        let bytes: [u8; 8] = unhex(case[0].as_str().unwrap()).try_into().unwrap();
-        let v = f64::from_le_bytes(bytes);
-        assert_eq!(command::float_repr(v), case[1].as_str().unwrap(), "{v:e}");
     }
 }

@@ -11,7 +11,7 @@ from agent.protocol.command import Fill, GestureCommand, ParticleClass, Waypoint
 from agent.sph.particle import NFIELDS, Control
 from coordinator.control.route import CommandFollower
 
-from .common import SECRET, control_list, relaid, sign
+from .common import SECRET, control_list, framed, reserialised, sign
 
 def spec(agent_id: int):
     return SimpleNamespace(secret=SECRET.hex(), id=agent_id,
@@ -27,8 +27,9 @@ def follower_sequences(commands: dict) -> list:
 
     c1 = cmd(1).encode(SECRET)
     c2 = cmd(2).encode(SECRET)
-    c2_relaid = relaid(cmd(2).body())
-    # Equal for Python (share 1 == 1.0, extra {"n": 1.0} == {"n": 1}) though another canonical body
+    c2_reserialised = framed(reserialised(cmd(2).body(), indent=1), c2[-66:-2])  # a forgery: other bytes
+    # The same values for Python (share 1 == 1.0, extra {"n": True} == {"n": 1}), signed: other bytes with
+    # the same seq, so a replay, not a republication
     b = cmd(2).body()
     b["classes"][0]["share"] = 1
     b["extra"] = {"n": True}
@@ -41,7 +42,7 @@ def follower_sequences(commands: dict) -> list:
     shape = (((0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)), ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0)))
     c6_cmd = GestureCommand(6, "fill", 10, cmd(6).classes, 3.0, 0.5, {"controller": "fill"}, Fill(shape, 80.0, 0.2))
     c6 = c6_cmd.encode(SECRET)
-    c6_relaid = relaid(c6_cmd.body())
+    c6_reserialised = framed(reserialised(c6_cmd.body(), separators=(",", ":")), c6[-66:-2])
     b = c6_cmd.body()
     b["fill"]["rings"][0] = [[int(x), int(y)] for x, y in b["fill"]["rings"][0]]  # equal for Python: 20 == 20.0
     c6_equal = sign(b)
@@ -52,11 +53,11 @@ def follower_sequences(commands: dict) -> list:
     forged[20] ^= 1
     steps = [
         ("offer", c1), ("offer", c1), ("control", (0.0, 0.0)), ("offer", c2), ("offer", c1), ("offer", c1),
-        ("offer", c2_relaid), ("offer", c2_equal), ("offer", c2_other), ("offer", c2), ("control", (10.0, 1.0)),
+        ("offer", c2_reserialised), ("offer", c2_equal), ("offer", c2_other), ("offer", c2), ("control", (10.0, 1.0)),
         ("control", (10.0, 1.0)), ("offer", bytes(forged)), ("offer", b"{}"), ("offer", commands["v_2"]),
         ("offer", c3), ("control", (5.0, 1.0)), ("offer", c4), ("offer", c5), ("offer", c4), ("offer", c3),
         ("control", (10.1, 1.0)), ("offer", c5), ("offer", c3), ("control", (15.0, 1.0)), ("control", (100.0, 100.0)),
-        ("offer", c6), ("offer", c6_relaid), ("offer", c6_equal), ("offer", c6_other), ("control", (5.0, 5.0)), ("control", (25.0, 10.0)), ("control", (10.0, 9.0)),
+        ("offer", c6), ("offer", c6_reserialised), ("offer", c6_equal), ("offer", c6_other), ("control", (5.0, 5.0)), ("control", (25.0, 10.0)), ("control", (10.0, 9.0)),
         ("control", (20.0, 20.0)), ("offer", c5), ("offer", c7), ("control", (0.0, 1.0)),
     ]
     out = []

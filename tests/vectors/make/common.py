@@ -22,26 +22,35 @@ OTHER_SECRET = bytes(range(1, 33))
 HEAD = b'{"v":1,"body":'
 
 
+def framed(body: bytes, sig: bytes, head: bytes = HEAD) -> bytes:
+    """The envelope's framing around these body bytes and this signature text, whatever they are."""
+    return head + body + b',"sig":"' + sig + b'"}'
+
+
+def sig_raw(body: bytes, secret: bytes = SECRET) -> bytes:
+    return hmac.new(secret, body, hashlib.sha256).hexdigest().encode()
+
+
 def sign_raw(body: bytes, secret: bytes = SECRET) -> bytes:
-    """The standard envelope around exactly these body bytes (the HMAC over them)."""
-    return HEAD + body + b',"sig":"' + hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b'"}'
+    """The envelope around exactly these body bytes, signed over them."""
+    return framed(body, sig_raw(body, secret))
 
 
 def sign(body: dict, secret: bytes = SECRET) -> bytes:
     return sign_raw(_canonical(body), secret)
 
 
-def sig_of(body: dict, secret: bytes = SECRET) -> str:
-    return hmac.new(secret, _canonical(body), hashlib.sha256).hexdigest()
+def reserialised(body: dict, **dumps) -> bytes:
+    """The body's JSON written otherwise (json.dumps with these options): other bytes, the same values."""
+    return json.dumps(body, **dumps).encode("utf-8")
 
 
-def relaid(body: dict, v=1, sig: str | None = None, extra_env: dict | None = None, indent=1) -> bytes:
-    """An envelope laid out differently from `encode` (keys reversed, indented): not the fast path."""
-    env = {"sig": sig_of(body) if sig is None else sig, "body": dict(reversed(list(body.items()))), "v": v}
-    if extra_env:
-        env.update(extra_env)
-    # surrogatepass: a lone surrogate in a str goes out as its 3-byte encoding, which Python's json reads back
-    return json.dumps(env, indent=indent, ensure_ascii=False).encode("utf-8", "surrogatepass")
+def relaid(body: dict, v=1, sig: str | None = None) -> bytes:
+    """The envelope as a JSON object laid out otherwise (keys reversed, indented), signed over the canonical
+    body: what a v1 receiver once accepted, now no envelope (the signature must cover the bytes sent)."""
+    env = {"sig": sig_raw(_canonical(body)).decode() if sig is None else sig,
+           "body": dict(reversed(list(body.items()))), "v": v}
+    return json.dumps(env, indent=1, ensure_ascii=False).encode("utf-8")
 
 
 STANDARD = GestureCommand(
@@ -69,11 +78,6 @@ def one_class(**changes) -> dict:
     c = {"name": "c", "share": 1.0, "route": [waypoint()]}
     c.update(changes)
     return c
-
-
-def lossy(s: str) -> str:
-    """A str as UTF-8 can carry it (lone surrogates as U+FFFD), as the Rust decoder reports it."""
-    return "".join("\ufffd" if 0xD800 <= ord(c) < 0xE000 else c for c in s)
 
 
 def control_list(c: Control) -> list:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from agent.protocol.command import MAX_RINGS, MAX_VERTICES, _canonical
 
-from .common import SECRET, body, one_class, relaid, sign, sign_raw
+from .common import SECRET, body, one_class, relaid, reserialised, sign, sign_raw
 from .shapes import ZONE, fill, photo_command, polygon, raw_fill, square
 
 def fill_command_cases() -> list:
@@ -15,11 +15,11 @@ def fill_command_cases() -> list:
     exact = body(fill=fill(rings=[[[0, 0], [10, 0], [10.5, 12.3456], [-0.0, 1e-05], [-1000000, 1e6]]], alpha=80, s=0))
     return [
         ("valid_fill_photo", photo.encode(SECRET)),
-        ("valid_fill_photo_relaid", relaid(photo.body())),
+        ("fill_photo_envelope_relaid", relaid(photo.body())),
         ("valid_fill_ints_and_exotic_floats", sign(exact)),
-        ("valid_fill_ints_and_exotic_floats_relaid", relaid(exact)),
-        ("valid_fill_float_other_spellings",  # the same canonical body as valid_fill_ints_and_exotic_floats
-         relaid(exact).replace(b"12.3456", b"1234.56e-2").replace(b"1e-05", b"0.00001000")),
+        ("valid_fill_ints_and_exotic_floats_indented", sign_raw(reserialised(exact, indent=1))),
+        ("valid_fill_float_other_spellings",  # the same values as valid_fill_ints_and_exotic_floats
+         sign_raw(reserialised(exact, indent=1).replace(b"12.3456", b"1234.56e-2").replace(b"1e-05", b"0.00001000"))),
         ("valid_fill_hole", sign(body(fill=fill(rings=[square(0.0, 0.0, 10.0), square(4.0, 4.0, 2.0)])))),
         ("valid_fill_rings_touch_at_a_vertex",
          sign(body(fill=fill(rings=[square(0.0, 0.0, 1.0), square(1.0, 1.0, 1.0)])))),

@@ -1,11 +1,10 @@
 //! The typed gesture command and `parse_body` (agent/protocol/command.py): every field checked, every failure
 //! "malformed".
 
-use std::collections::BTreeMap;
+use serde_json::{Map, Value};
 
-use super::pyjson::{key, py_eq, to_string, Json, PyStr};
 use super::{MALFORMED, MAX_CLASSES, MAX_COORD, MAX_RINGS, MAX_ROUTE, MAX_VERTICES, MAX_ZONES};
-use crate::fill::{edges_cross, Ring};
+use crate::fill::{edges_cross, Ring, Zone};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Waypoint {
@@ -21,7 +20,7 @@ pub struct Waypoint {
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParticleClass {
-    /// For logs; a lone surrogate in the command shows as U+FFFD.
+    /// For logs.
     pub name: String,
     pub share: f64,
     pub route: Vec<Waypoint>,
@@ -30,7 +29,6 @@ pub struct ParticleClass {
 /// The silhouette the swarm fills (agent/fill.py): `rings` of (x, y) vertices [m], closed implicitly,
 /// even-odd (a ring inside another is a hole), no two edges crossing. A particle outside is pulled towards
 /// the nearest boundary point with gain `alpha` [1/s^2] over ramp `s` [m] (eq. 6.2); inside, no body force.
-/// Equality is Python's: vertex by vertex with `==` (0.0 == -0.0).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fill {
     pub rings: Vec<Ring>,
@@ -40,83 +38,40 @@ pub struct Fill {
     pub zones: Vec<Zone>,
 }
 
-/// A material zone of the shape (agent/protocol/command.py `Zone`): an ellipse with centre (x, y) [m], unit
-/// major axis (ux, uy) and semi-axes a, b [m]; an agent inside it uses `beta` and `mu`.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Zone {
-    pub x: f64,
-    pub y: f64,
-    pub ux: f64,
-    pub uy: f64,
-    pub a: f64,
-    pub b: f64,
-    pub beta: f64,
-    pub mu: f64,
-}
-
-#[derive(Clone, Debug)]
 pub struct GestureCommand {
     pub seq: u64,
-    /// For logs; a lone surrogate in the command shows as U+FFFD.
+    /// For logs.
     pub gesture: String,
     pub n_agents: u64,
     pub classes: Vec<ParticleClass>,
     pub beta: f64,
     pub mu: f64,
-    /// Free-form annotations (an object), for logs only.
-    pub extra: Json,
-    /// The shape to fill; with it, routes are not followed (classes still label the particles).
+    /// The shape to fill; with it, routes are not followed (classes still label the particles). (The body's
+    /// `extra` annotations are checked to be an object and not kept: agents ignore them.)
     pub fill: Option<Fill>,
-    /// The gesture and class names as Python strs, for an exact `==`.
-    texts: Vec<PyStr>,
 }
 
-/// Python's dataclass equality: field by field with `==` (so 1 == 1.0 and 0.0 == -0.0), `extra` included.
-impl PartialEq for GestureCommand {
-    fn eq(&self, o: &Self) -> bool {
-        self.seq == o.seq
-            && self.n_agents == o.n_agents
-            && self.texts == o.texts
-            && self.classes == o.classes
-            && self.beta == o.beta
-            && self.mu == o.mu
-            && py_eq(&self.extra, &o.extra)
-            && self.fill == o.fill
-    }
-}
-
-pub(super) type Obj = BTreeMap<PyStr, Json>;
-
-pub(super) fn get<'a>(d: &'a Obj, k: &str) -> Option<&'a Json> {
-    d.get(&key(k))
-}
+type Obj = Map<String, Value>;
 
 /// `_only`: an object with no key outside `allowed`.
-pub(super) fn only<'a>(v: &'a Json, allowed: &[&str]) -> Result<&'a Obj, &'static str> {
+fn only<'a>(v: &'a Value, allowed: &[&str]) -> Result<&'a Obj, &'static str> {
     match v {
-        Json::Object(d) if d.keys().all(|k| allowed.iter().any(|a| key(a) == *k)) => Ok(d),
+        Value::Object(d) if d.keys().all(|k| allowed.contains(&k.as_str())) => Ok(d),
         _ => Err(MALFORMED),
     }
 }
 
 /// `_num`: an int or float (not bool) within [lo, hi], as a float.
 fn num(d: &Obj, k: &str, lo: f64, hi: f64) -> Result<Option<f64>, &'static str> {
-    get(d, k).map(|v| number(v, lo, hi)).transpose()
+    d.get(k).map(|v| number(v, lo, hi)).transpose()
 }
 
-/// `_num` on a present value.
-fn number(v: &Json, lo: f64, hi: f64) -> Result<f64, &'static str> {
-    let v = match v {
-        Json::Float(f) => *f,
-        // Exact for every int in range (the bounds are at most 1e6); anything beyond i128 is out of range,
-        // as Python finds it (an int beyond 2**1023 is refused as "malformed" before float() overflows).
-        Json::Int(n) => n.small().ok_or(MALFORMED)? as f64,
-        _ => return Err(MALFORMED),
-    };
-    if lo <= v && v <= hi {
-        Ok(v)
-    } else {
-        Err(MALFORMED)
+/// `_num` on a present value. (An integer beyond 64 bits is read as a float by serde_json: out of range.)
+fn number(v: &Value, lo: f64, hi: f64) -> Result<f64, &'static str> {
+    match v.as_f64() {
+        Some(x) if lo <= x && x <= hi => Ok(x),
+        _ => Err(MALFORMED),
     }
 }
 
@@ -124,47 +79,43 @@ fn required(d: &Obj, k: &str, lo: f64, hi: f64) -> Result<f64, &'static str> {
     num(d, k, lo, hi)?.ok_or(MALFORMED)
 }
 
-/// An int (not bool) in [lo, hi).
-fn int_in(v: Option<&Json>, lo: i128, hi: i128) -> Result<u64, &'static str> {
-    match v {
-        Some(Json::Int(n)) => match n.small() {
-            Some(x) if lo <= x && x < hi => Ok(x as u64),
-            _ => Err(MALFORMED),
-        },
+/// An integer (not bool, not written with a fraction or exponent, not -0) in [lo, hi).
+fn int_in(v: Option<&Value>, lo: u64, hi: u64) -> Result<u64, &'static str> {
+    match v.and_then(Value::as_u64) {
+        Some(x) if lo <= x && x < hi => Ok(x),
         _ => Err(MALFORMED),
     }
 }
 
-/// A str of at most 64 code points (Python's len); "" when absent.
-fn short_str(v: Option<&Json>) -> Result<PyStr, &'static str> {
+/// A string of at most 64 code points (Python's len); "" when absent.
+fn short_str(v: Option<&Value>) -> Result<String, &'static str> {
     match v {
-        None => Ok(Vec::new()),
-        Some(Json::Str(s)) if s.len() <= 64 => Ok(s.clone()),
+        None => Ok(String::new()),
+        Some(Value::String(s)) if s.chars().count() <= 64 => Ok(s.clone()),
         _ => Err(MALFORMED),
     }
 }
 
-fn list(v: Option<&Json>, max: usize) -> Result<&[Json], &'static str> {
+fn list(v: Option<&Value>, max: usize) -> Result<&[Value], &'static str> {
     match v {
-        Some(Json::Array(items)) if (1..=max).contains(&items.len()) => Ok(items),
+        Some(Value::Array(items)) if (1..=max).contains(&items.len()) => Ok(items),
         _ => Err(MALFORMED),
     }
 }
 
 /// `parse_body`: the typed command from a verified body; every failure is "malformed".
-pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
+pub fn parse_body(body: &Value) -> Result<GestureCommand, &'static str> {
     let body = only(body, &["seq", "gesture", "n_agents", "classes", "beta", "mu", "extra", "fill"])?;
-    let seq = int_in(get(body, "seq"), 0, 1 << 62)?;
-    let n_agents = int_in(get(body, "n_agents"), 1, 100_001)?;
-    let gesture = short_str(get(body, "gesture"))?;
-    let mut texts = vec![gesture.clone()];
+    let seq = int_in(body.get("seq"), 0, 1 << 62)?;
+    let n_agents = int_in(body.get("n_agents"), 1, 100_001)?;
+    let gesture = short_str(body.get("gesture"))?;
     let mut classes = Vec::new();
-    for c in list(get(body, "classes"), MAX_CLASSES)? {
+    for c in list(body.get("classes"), MAX_CLASSES)? {
         let c = only(c, &["name", "share", "route"])?;
-        let name = short_str(get(c, "name"))?;
+        let name = short_str(c.get("name"))?;
         let share = required(c, "share", 0.0, 1e6)?;
         let mut route = Vec::new();
-        for w in list(get(c, "route"), MAX_ROUTE)? {
+        for w in list(c.get("route"), MAX_ROUTE)? {
             let w = only(w, &["x", "y", "r", "s", "alpha", "beta", "mu"])?;
             route.push(Waypoint {
                 x: required(w, "x", -MAX_COORD, MAX_COORD)?,
@@ -176,41 +127,36 @@ pub fn parse_body(body: &Json) -> Result<GestureCommand, &'static str> {
                 mu: num(w, "mu", 0.0, 1e4)?,
             });
         }
-        classes.push(ParticleClass { name: to_string(&name), share, route });
-        texts.push(name);
+        classes.push(ParticleClass { name, share, route });
     }
     // Python's sum: left to right from 0
     if classes.iter().fold(0.0, |acc, c| acc + c.share) <= 0.0 {
         return Err(MALFORMED);
     }
-    let extra = match get(body, "extra") {
-        None => Json::Object(BTreeMap::new()),
-        Some(e @ Json::Object(_)) => e.clone(),
-        Some(_) => return Err(MALFORMED),
-    };
-    let fill = get(body, "fill").map(parse_fill).transpose()?;
+    if body.get("extra").is_some_and(|e| !e.is_object()) {
+        return Err(MALFORMED);
+    }
+    let fill = body.get("fill").map(parse_fill).transpose()?;
     Ok(GestureCommand {
         seq,
-        gesture: to_string(&gesture),
+        gesture,
         n_agents,
         classes,
         beta: required(body, "beta", 0.0, 1e4)?,
         mu: required(body, "mu", 0.0, 1e4)?,
-        extra,
         fill,
-        texts,
     })
 }
 
 /// `_fill`: 1..=MAX_RINGS rings of at least 3 [x, y] vertices, at most MAX_VERTICES in all, no two edges
 /// crossing; alpha in [0, 1e4], s in [0, MAX_COORD]; no other key. Every failure is "malformed".
-fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
+fn parse_fill(f: &Value) -> Result<Fill, &'static str> {
     let f = only(f, &["rings", "alpha", "s", "zones"])?;
     let mut rings = Vec::new();
     let mut total = 0;
-    for ring in list(get(f, "rings"), MAX_RINGS)? {
+    for ring in list(f.get("rings"), MAX_RINGS)? {
         let ring = match ring {
-            Json::Array(vs) if vs.len() >= 3 => vs,
+            Value::Array(vs) if vs.len() >= 3 => vs,
             _ => return Err(MALFORMED),
         };
         total += ring.len();
@@ -220,7 +166,7 @@ fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
         let mut vs = Vec::with_capacity(ring.len());
         for v in ring {
             match v {
-                Json::Array(xy) if xy.len() == 2 => {
+                Value::Array(xy) if xy.len() == 2 => {
                     vs.push((number(&xy[0], -MAX_COORD, MAX_COORD)?, number(&xy[1], -MAX_COORD, MAX_COORD)?))
                 }
                 _ => return Err(MALFORMED),
@@ -231,16 +177,16 @@ fn parse_fill(f: &Json) -> Result<Fill, &'static str> {
     if edges_cross(&rings) {
         return Err(MALFORMED);
     }
-    let zones = match get(f, "zones") {
+    let zones = match f.get("zones") {
         None => Vec::new(),
-        Some(Json::Array(zs)) if zs.len() <= MAX_ZONES => zs.iter().map(parse_zone).collect::<Result<_, _>>()?,
+        Some(Value::Array(zs)) if zs.len() <= MAX_ZONES => zs.iter().map(parse_zone).collect::<Result<_, _>>()?,
         Some(_) => return Err(MALFORMED),
     };
     Ok(Fill { rings, alpha: required(f, "alpha", 0.0, 1e4)?, s: required(f, "s", 0.0, MAX_COORD)?, zones })
 }
 
 /// `_zone`: an ellipse with a unit axis (|ux^2 + uy^2 - 1| <= 1e-6) and semi-axes > 0; no other key.
-fn parse_zone(z: &Json) -> Result<Zone, &'static str> {
+fn parse_zone(z: &Value) -> Result<Zone, &'static str> {
     let z = only(z, &["x", "y", "ux", "uy", "a", "b", "beta", "mu"])?;
     let (ux, uy) = (required(z, "ux", -1.0, 1.0)?, required(z, "uy", -1.0, 1.0)?);
     if (ux * ux + uy * uy - 1.0).abs() > 1e-6 {

@@ -49,6 +49,7 @@ impl CommandFollower {
     pub fn offer(&mut self, payload: &[u8], now_unix: f64) -> Option<&'static str> {
         // The coordinator republishes the current command every 0.2 s, and a captured old command replayed
         // is the same bytes again: both are settled without decoding (a flood must not starve the agent).
+        // The one encoder writes a command as one string of bytes, so only those bytes are a republication.
         if self.current_payload.as_deref() == Some(payload) {
             return None;
         }
@@ -61,9 +62,7 @@ impl CommandFollower {
         };
         if let Some(newest) = self.pending.as_ref().or(self.command.as_ref()) {
             if cmd.seq <= newest.seq {
-                if cmd.seq == newest.seq && cmd == *newest {
-                    return None; // the same command laid out differently
-                }
+                // Other bytes than the newest's (checked above): not a republication.
                 if self.replays.len() < MAX_REPLAYS {
                     self.replays.insert(payload.to_vec()); // authentic but old: it stays a replay (seq only grows)
                 }
