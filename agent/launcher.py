@@ -29,6 +29,8 @@ from agent.helpers import Helpers
 from agent.initial_neighbours import initial_neighbours
 from agent.pacing import Pacer
 from agent.protocol import keys
+from agent.protocol.access import AGENT_CAPACITY
+from agent.protocol.access import level as access_level
 from agent.protocol.errors import UserError
 from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
@@ -69,6 +71,15 @@ class SwarmResult:
     def neighbours_per_agent(self) -> float:
         rs = [r for r in self.finals.values() if r.steps]
         return float(np.mean([r.neighbours / r.steps for r in rs])) if rs else 0.0
+
+
+def check_swarm_size(agents: int) -> None:
+    """A swarm of ids 0..agents-1 fits an embedded router (checked before anything starts): at access level acl or
+    auth it provisions ids 0..AGENT_CAPACITY-1 only (docs/security.md), and every id needs a key (docs/protocol.md)."""
+    bound = keys.MAX_AGENTS if access_level() == "none" else AGENT_CAPACITY
+    if agents > bound:
+        raise UserError(f"--agents {agents}: an embedded router knows agent ids 0..{bound - 1} only (at most "
+                        f"{bound} agents on one host; split a larger swarm over hosts, docs/multi-host.md)")
 
 
 class Launcher:
@@ -157,7 +168,9 @@ class Launcher:
         ids = [int(i) for i in ids]
         if not ids:
             return
-        for i in (min(ids), max(ids)):
+        cap = self.access.capacity  # the router's own bound comes before the keys' (docs/protocol.md)
+        beyond = [i for i in ids if cap is not None and i >= cap]
+        for i in [min(ids)] + ([min(beyond)] if beyond else []) + [max(ids)]:
             try:
                 self.access.env_for_agent(i)
             except ValueError as exc:

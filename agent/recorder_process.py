@@ -30,7 +30,7 @@ class RecorderProcess:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket."""
-        _check_writable(Path(path))
+        check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
         out = subprocess.DEVNULL if self.quiet else None
@@ -78,7 +78,7 @@ class RecorderProcess:
         return lines[-1][:300] if lines else ""
 
 
-def _check_writable(path: Path) -> None:
+def check_writable(path: Path) -> None:
     """The recording's folder exists and takes a new file: else one line naming the path, before anything."""
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
