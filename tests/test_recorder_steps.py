@@ -14,7 +14,7 @@ from agent.protocol import keys
 from agent.protocol.stopping import stop_on_signals
 from agent.protocol.wire import encode_state
 from fluidswarm.recording import steps
-from fluidswarm.recording.reader import load_run
+from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.recorder import record
 from fluidswarm.recording.writer import RunWriter
 
@@ -186,3 +186,18 @@ def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_the
     events = {(e.kind, e.agent, e.step) for e in load_run(path, images=False).events if e.kind != "started"}
     assert events == {("neighbour_timeout", 2, 3), ("finished", 0, 5), ("stopped", 1, 5), ("died", 2, 5)}
     assert rec.rejected == 1
+
+
+def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorder):
+    rec, clock, path = recorder
+    for k in range(10):
+        for j in (0, 1, 2) if k < 4 or k >= 7 else (0, 1):  # agent 2 froze after step 3, rejoined at step 7
+            post(rec, j, k)
+    rec.pump(0.0)
+    rec.finish(quiet=0.0, limit=0.0)
+    rec.writer.close()
+    run = load_run(path, images=False)
+    assert [(e.kind, e.step) for e in run.events if e.agent == 2 and e.step > 0] == \
+        [("died", 4), ("started", 7)]
+    assert check(path) == (True, 10, 0)
+    assert recorded(path)[2] == {0, 1, 2, 3, 7, 8, 9}

@@ -60,6 +60,7 @@ class Recorder:
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.gone_at: dict[int, float] = {}  # agent -> when its token went (monotonic s), until its event is written
         self.reported: dict[int, Status] = {}  # agent -> how its final report says it ended
+        self.skipping: dict[int, int] = {}  # agent -> the step it comes back at, after steps it skipped (rejoined)
         self.next_step = 0
         self.newest = -1
         self.rejected = 0
@@ -202,6 +203,20 @@ class Recorder:
                 self.stopped.add(j)
                 self.writer.write_event(self.t(step), "warning", f"agent/{j}", f"agent {j} stopped reporting (frozen?)",
                                         kind="died", agent=j, step=step)
+            elif j not in self.skipping:
+                # It reported later steps but not this one: it froze and rejoined at the swarm's step
+                # (docs/protocol.md), skipping the steps between; it is away from here to its next state.
+                back = min((k for k, states in self.pending.items() if k > step and j in states), default=None)
+                if back is None:
+                    continue
+                self.skipping[j] = back
+                self.writer.write_event(self.t(step), "warning", f"agent/{j}",
+                                        f"agent {j} skipped steps {step}..{back - 1} (frozen, rejoined)",
+                                        kind="died", agent=j, step=step)
+                self.writer.write_event(self.t(back), "info", f"agent/{j}", f"agent {j} reports again at step {back}",
+                                        kind="started", agent=j, step=back)
+        for j in [j for j, back in self.skipping.items() if back <= step]:
+            del self.skipping[j]
         if not have:
             return
         ids = np.array(sorted(have), dtype=np.int64)
