@@ -9,6 +9,7 @@ Used through fluidswarm/run.py by `fluidswarm launch`, `verify`, `imitate`, `run
     agent/supervisor.py        the agent processes: start, alive tokens, final reports, stop
     agent/pacing.py            the run's progress (steps seen) and its pacing clock, ctl/end and ctl/gone
     agent/recorder_process.py  the MCAP recorder process
+    agent/helpers.py           the router, recorder and coordinator, watched: a lost one ends the run (HelperLost)
 
 and `run_swarm` holds the start barrier: every agent's alive token before the start signal. Every process
 started is stopped when the launcher closes (also on an exception or SIGINT/SIGTERM).
@@ -24,9 +25,13 @@ from typing import Callable
 
 import numpy as np
 
+from agent.helpers import Helpers
 from agent.initial_neighbours import initial_neighbours
 from agent.pacing import Pacer
 from agent.protocol import keys
+from agent.protocol.access import AGENT_CAPACITY
+from agent.protocol.access import level as access_level
+from agent.protocol.errors import UserError
 from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
@@ -68,6 +73,15 @@ class SwarmResult:
         return float(np.mean([r.neighbours / r.steps for r in rs])) if rs else 0.0
 
 
+def check_swarm_size(agents: int) -> None:
+    """A swarm of ids 0..agents-1 fits an embedded router (checked before anything starts): at access level acl or
+    auth it provisions ids 0..AGENT_CAPACITY-1 only (docs/security.md), and every id needs a key (docs/protocol.md)."""
+    bound = keys.MAX_AGENTS if access_level() == "none" else AGENT_CAPACITY
+    if agents > bound:
+        raise UserError(f"--agents {agents}: an embedded router knows agent ids 0..{bound - 1} only (at most "
+                        f"{bound} agents on one host; split a larger swarm over hosts, docs/multi-host.md)")
+
+
 class Launcher:
     """Owns an embedded router (or a connection to one), the agent processes and the recorder of one run.
 
@@ -88,12 +102,17 @@ class Launcher:
         self.endpoint, self.agent_endpoint = self.router.endpoint, self.router.agent_endpoint
         self.access, self.session = self.router.access, self.router.session
         self.swarm = Swarm(self.run, self.endpoint, self.session)
+        self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
+        self.helpers = Helpers(step=lambda: self.pacer.max_step)
+        if self.router.process is not None:
+            proc = self.router.process.proc
+            self.helpers.watch(f"embedded router (fluidswarm-router, pid {proc.pid})", proc)
         try:
-            self.supervisor = Supervisor(self.swarm, self.access.env_for_agent, self.secret if commands else "", quiet)
+            self.supervisor = Supervisor(self.swarm, self.access.env_for_agent, self.secret if commands else "", quiet,
+                                         health=self.helpers.check)
         except BaseException:
             self.router.close()
             raise
-        self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
         self.relay = self.router.relay  # under per-process rights: agents' id keys -> cell keys
         self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet,
                                         self.access.state_key_ids)
@@ -129,10 +148,33 @@ class Launcher:
     # the recorder (agent/recorder_process.py)
     def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "",
                        image: str = "", live: str = ""):
-        return self.recorder.start(path, metadata, dt, timeout, target, image, live)
+        proc = self.recorder.start(path, metadata, dt, timeout, target, image, live)
+        self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
+        return proc
 
     def stop_recorder(self, timeout: float = 60.0) -> int | None:
+        if self.recorder.proc is not None:
+            self.helpers.forget(self.recorder.proc)
         return self.recorder.stop(timeout)
+
+    def watch_coordinator(self, proc) -> None:
+        """The run's coordinator: lost if it fails (killed, or a non-zero exit) while the run goes on, unless a
+        failure kills it on purpose (Helpers.expect_loss); one that ends its job (exit 0) is not lost."""
+        self.helpers.watch(f"coordinator (pid {proc.pid})", proc, fine_exit=True)
+
+    def check_ids(self, ids) -> None:
+        """Every id in `ids` has credentials on this run's router: else one line naming the bound, before
+        any agent starts."""
+        ids = [int(i) for i in ids]
+        if not ids:
+            return
+        cap = self.access.capacity  # the router's own bound comes before the keys' (docs/protocol.md)
+        beyond = [i for i in ids if cap is not None and i >= cap]
+        for i in [min(ids)] + ([min(beyond)] if beyond else []) + [max(ids)]:
+            try:
+                self.access.env_for_agent(i)
+            except ValueError as exc:
+                raise UserError(f"{exc}; nothing was started") from None
 
     # the agents (agent/supervisor.py)
     def spec_for(self, agent_id: int, state: np.ndarray, control: Control, params, steps: int, **extra) -> AgentSpec:
@@ -172,7 +214,10 @@ class Launcher:
             return {i: p.returncode for i, p in self.swarm.procs.items()}
         self.closed = True
         self.pacer.stop()
-        codes = self.supervisor.stop_all()
+        router_lost = self.router.process is not None and self.router.process.proc.poll() is not None
+        codes = self.supervisor.stop_all(bus=not router_lost)  # without a router no stop message arrives
+        if self.recorder.proc is not None:
+            self.helpers.forget(self.recorder.proc)
         self.recorder.stop()
         if self.relay is not None:
             self.relay.close()
@@ -204,6 +249,7 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         chosen = [int(i) for i in (setup.ids if ids is None else ids)]
         index = {int(i): k for k, i in enumerate(setup.ids)}
         everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
+        launcher.check_ids(everyone)
         startup_budget = startup_timeout or 60.0 + 0.5 * len(everyone)
         # An agent waits for the start signal as long as the launcher waits for the swarm to come up (a
         # 1000-agent swarm takes minutes on two cores), not a fixed 120 s.

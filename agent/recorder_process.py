@@ -6,9 +6,12 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from agent.protocol import keys
+from agent.protocol.errors import UserError
 from agent.supervisor import die_with_parent, stop_process
 
 
@@ -20,15 +23,18 @@ class RecorderProcess:
         self.run, self.endpoint, self.session, self.env, self.quiet = run, endpoint, session, env, quiet
         self.id_keys = id_keys  # the agents put states on their id keys (per-process rights)
         self.proc: subprocess.Popen | None = None
+        self._stderr = None  # its error output (a file, never a pipe it could fill), for last_words()
 
     def start(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "", image: str = "",
               live: str = "") -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket."""
+        check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
         out = subprocess.DEVNULL if self.quiet else None
+        self._stderr = tempfile.TemporaryFile("w+")
         cmd = [sys.executable, "-m", "fluidswarm.recording.recorder", "--connect", self.endpoint, "--run", self.run,
                "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta),
                "--state-keys", "id" if self.id_keys else "cell"]
@@ -38,13 +44,15 @@ class RecorderProcess:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
-        self.proc = subprocess.Popen(cmd, stdout=out, stderr=out, stdin=subprocess.DEVNULL, preexec_fn=die_with_parent,
-                                     env=dict(os.environ, **self.env))
+        self.proc = subprocess.Popen(cmd, stdout=out, stderr=self._stderr, stdin=subprocess.DEVNULL,
+                                     preexec_fn=die_with_parent, env=dict(os.environ, **self.env))
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
-                raise RuntimeError(f"recorder exited at start-up (code {self.proc.returncode})")
+                why = self.last_words()
+                raise RuntimeError(f"recorder exited at start-up (code {self.proc.returncode})"
+                                   + (f": {why}" if why else ""))
             # its own token's key: a token on a wildcard key (`fluidswarm/**`) answers this query too
             if any(r.ok is not None and str(r.ok.key_expr) == key for r in self.session.liveliness().get(key, timeout=1.0)):
                 return self.proc
@@ -56,4 +64,26 @@ class RecorderProcess:
         if self.proc is None:
             return None
         stop_process(self.proc, timeout)
+        if self._stderr is not None:
+            self._stderr.close()
+            self._stderr = None
         return self.proc.returncode
+
+    def last_words(self) -> str:
+        """The last line the recorder wrote on its stderr ("" if none)."""
+        if self._stderr is None:
+            return ""
+        self._stderr.seek(0)
+        lines = [line.strip() for line in self._stderr.read().splitlines() if line.strip()]
+        return lines[-1][:300] if lines else ""
+
+
+def check_writable(path: Path) -> None:
+    """The recording's folder exists and takes a new file: else one line naming the path, before anything."""
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise UserError(f"cannot record to {path}: it is a directory")
+    if not folder.is_dir():
+        raise UserError(f"cannot record to {path}: no such directory {folder}")
+    if not os.access(folder, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UserError(f"cannot record to {path}: permission denied")

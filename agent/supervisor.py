@@ -65,8 +65,12 @@ class Supervisor:
     """Starts agents with `env_for_agent(id)` (their credentials) and, with `secret`, the run's command key
     in their environment; `quiet`: their output goes nowhere."""
 
-    def __init__(self, swarm: Swarm, env_for_agent: Callable[[int], dict], secret: str = "", quiet: bool = True):
+    def __init__(self, swarm: Swarm, env_for_agent: Callable[[int], dict], secret: str = "", quiet: bool = True,
+                 health: Callable[[], None] = lambda: None):
         self.swarm, self.env_for_agent, self.secret, self.quiet = swarm, env_for_agent, secret, quiet
+        # called at every wake-up of the waits below (<= 0.2 s apart): raises when a helper of the run (router,
+        # recorder, coordinator) is lost, so no wait outlives it (agent/launcher.py: Launcher.check_helpers)
+        self.health = health
         self.program = agent_executable()  # the compiled agent (agent/native); fail before any process starts
         session, run = swarm.session, swarm.run
         self._subs = [
@@ -130,6 +134,7 @@ class Supervisor:
         deadline = time.monotonic() + timeout
         with self.swarm.changed:
             while not want <= self.swarm.alive:
+                self.health()
                 left = deadline - time.monotonic()
                 dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
                 if dead:
@@ -137,7 +142,7 @@ class Supervisor:
                 if left <= 0:
                     missing = sorted(want - self.swarm.alive)
                     raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
-                self.swarm.changed.wait(min(left, 0.5))
+                self.swarm.changed.wait(min(left, 0.2))
 
     def start(self) -> None:
         """The start signal (ctl/start) every waiting agent steps from."""
@@ -163,6 +168,7 @@ class Supervisor:
 
         with self.swarm.changed:
             while True:
+                self.health()
                 pending = [i for i in ids if waiting(i, time.monotonic())]
                 if not pending:
                     return
@@ -177,19 +183,20 @@ class Supervisor:
                     finally:
                         self.swarm.changed.acquire()
 
-    def stop_all(self) -> dict[int, int | None]:
-        """Stop every agent (stop message, then SIGTERM, then SIGKILL); their exit codes."""
+    def stop_all(self, bus: bool = True) -> dict[int, int | None]:
+        """Stop every agent (stop message, then SIGTERM, then SIGKILL); their exit codes. `bus` False: the
+        router is gone, so no stop message can reach them: SIGTERM at once."""
         procs = self.swarm.procs
         with self.swarm.changed:
             unreported = [i for i, p in procs.items() if p.poll() is None and i not in self.swarm.finals]
         # ctl/stop reaches every agent of the run, on every host: an agent that reported is leaving anyway, and
         # in a multi-host run the stop of the host that finished first would halt the others' last steps.
-        if unreported:
+        if unreported and bus:
             try:
                 self.swarm.session.put(*ctl_message(self.swarm.run, Stop()))
             except Exception:  # the session may already be gone on an interrupted run
                 pass
-        if any(p.poll() is None for p in procs.values()):
+        if bus and any(p.poll() is None for p in procs.values()):
             _wait_all(procs.values(), 2.0)
         for p in procs.values():
             if p.poll() is None:

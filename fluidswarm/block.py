@@ -31,6 +31,7 @@ class Block:
     def drive(self, run: Run) -> None:
         from agent.sph.setups import spread_block
 
+        run.launcher.check_ids(range(self.agents))  # before the recorder: nothing starts for a swarm too large
         self.setup = setup = spread_block(self.agents)
         if self.record:
             run.record_to({"scenario": "launch", "agents": self.agents, "steps": self.steps,

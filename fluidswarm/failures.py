@@ -78,6 +78,8 @@ class FailureInjector:
                 threading.Timer(f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]).start()
                 self._calm_from = max(self._calm_from, time.monotonic() + f.seconds)
             elif f.kind == "kill_coordinator" and self.coordinator is not None:
+                # planned: a survivable fault (agents keep their last command), not a lost helper
+                self.launcher.helpers.expect_loss(self.coordinator)
                 _signal(self.coordinator.pid, signal.SIGKILL)
                 self.log.injected.append(f"step {f.at_step}: SIGKILL coordinator")
             elif f.kind == "late_join" and self.spawn_late is not None:

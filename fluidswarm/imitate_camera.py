@@ -103,6 +103,7 @@ class CameraImitation:
         coord = start_coordinator(run, ["--camera", str(self.source), "--fps", repr(float(self.fps)),
                                         "--stall-seconds", repr(float(self.stall_seconds)), "--agents", str(self.agents),
                                         "--controller", self.controller, "--observations", str(tmp)])
+        run.launcher.helpers.forget(coord)  # its end is the stream's end, handled here: not a lost helper
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)

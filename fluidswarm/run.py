@@ -205,6 +205,7 @@ class Run:
             if self._bar is not None:
                 self._bar.close()
             if self.coordinator is not None:
+                self.launcher.helpers.forget(self.coordinator)
                 stop_process(self.coordinator)
         finally:
             codes = self.launcher.close()  # agents, then the recorder (the MCAP is complete after this)
@@ -232,8 +233,10 @@ class Run:
         self._on_stop.append(fn)
 
     def add_coordinator(self, proc: subprocess.Popen) -> None:
-        """The run's coordinator process: stopped with the run, the target of a kill_coordinator failure."""
+        """The run's coordinator process: stopped with the run, the target of a kill_coordinator failure;
+        watched (agent/helpers.py): one that dies on its own ends the run as a lost helper."""
         self.coordinator = proc
+        self.launcher.watch_coordinator(proc)
 
     def record_to(self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None) -> Path | None:
         """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either)."""

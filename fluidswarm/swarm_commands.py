@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
@@ -88,6 +89,18 @@ def _check_counts(agents: int, steps: int) -> None:
         raise UserError(f"--steps: must be >= 0, got {steps}")
 
 
+def _check_before_start(args) -> None:
+    """What would fail once the router runs, found before it starts: a swarm beyond an embedded router's ids,
+    a recording that cannot be written (one line each, nothing started)."""
+    from agent.launcher import check_swarm_size
+    from agent.recorder_process import check_writable
+
+    if not args.connect:
+        check_swarm_size(args.agents)
+    if getattr(args, "record", None):
+        check_writable(Path(args.record))
+
+
 def _auth_file(args) -> str:
     """--auth-file, checked before anything starts: one line naming the file and the problem."""
     from agent.protocol.access import AuthFileError, read_users_file
@@ -117,6 +130,7 @@ def _launch(args) -> int:
     from fluidswarm.run import Run, Sync
 
     _check_counts(args.agents, args.steps)
+    _check_before_start(args)
     for name in ("rate", "max_age"):
         v = getattr(args, name)
         if not (v > 0 and v < float("inf")):
@@ -151,6 +165,7 @@ def _verify(args) -> int:
     from fluidswarm.run import Run
 
     _check_counts(args.agents, args.steps)
+    _check_before_start(args)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     if args.ids and not args.run:
         raise UserError("--ids needs --run: every host of a split run must use the same run name")

@@ -14,7 +14,7 @@ from agent.protocol import keys
 from agent.protocol.stopping import stop_on_signals
 from agent.protocol.wire import encode_state
 from fluidswarm.recording import steps
-from fluidswarm.recording.reader import load_run
+from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.recorder import record
 from fluidswarm.recording.writer import RunWriter
 
@@ -153,3 +153,51 @@ def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
             signal.signal(s, h)
     rec.writer.close()
     assert recorded(path) == {j: set(range(10)) for j in range(3)}
+
+
+def report(agent: int, status: str) -> bytes:
+    import json
+
+    return json.dumps({"v": 1, "id": agent, "status": status, "steps": 5, "state": [0.0] * 10, "msgs_received": 0,
+                       "neighbours": 0, "rejected": {}, "timeouts": 0, "deaths_seen": 0, "stale": 0, "dropped_out": 0,
+                       "lost": 0, "t_start": None, "t_end": None, "session_opened_at": 1.79e9, "rss_mb": 1.0,
+                       "cpu_seconds": 0.1, "cpu_seconds_at_start": None}).encode()
+
+
+def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_they_are(recorder):
+    rec, clock, path = recorder
+    for s in range(5):
+        for j in range(3):
+            post(rec, j, s)
+    # the agent's own event carries its agent and step into the file's Log fields
+    timeout = b'{"v":1,"id":2,"step":3,"event":"neighbour_timeout","neighbours":[1]}'
+    rec.inbox.put((2, (timeout, keys.event_key(RUN, 2))))
+    rec.inbox.put((4, (report(0, "done"), keys.final_key(RUN, 0))))
+    rec.inbox.put((4, (report(1, "stopped"), keys.final_key(RUN, 1))))
+    rec.inbox.put((4, (report(1, "done"), keys.final_key(RUN, 2))))  # under another agent's key: dropped
+    rec.pump(0.0)
+    for j in range(3):  # the tokens go; agent 2 sent no report of its own: it died
+        rec.inbox.put((1, (keys.alive_key(RUN, j), False)))
+    rec.pump(0.0)
+    clock.t += steps.REPORT_GRACE_SECONDS + 0.1
+    rec.pump(0.0)
+    rec.finish(quiet=0.0, limit=0.0)
+    rec.writer.close()
+    events = {(e.kind, e.agent, e.step) for e in load_run(path, images=False).events if e.kind != "started"}
+    assert events == {("neighbour_timeout", 2, 3), ("finished", 0, 5), ("stopped", 1, 5), ("died", 2, 5)}
+    assert rec.rejected == 1
+
+
+def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorder):
+    rec, clock, path = recorder
+    for k in range(10):
+        for j in (0, 1, 2) if k < 4 or k >= 7 else (0, 1):  # agent 2 froze after step 3, rejoined at step 7
+            post(rec, j, k)
+    rec.pump(0.0)
+    rec.finish(quiet=0.0, limit=0.0)
+    rec.writer.close()
+    run = load_run(path, images=False)
+    assert [(e.kind, e.step) for e in run.events if e.agent == 2 and e.step > 0] == \
+        [("died", 4), ("started", 7)]
+    assert check(path) == (True, 10, 0)
+    assert recorded(path)[2] == {0, 1, 2, 3, 7, 8, 9}

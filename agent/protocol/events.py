@@ -26,7 +26,8 @@ class EventKind(str, Enum):
     STARTED = "started"  # passed the start barrier (or joined)
     COMMAND_RECEIVED = "command_received"  # its first gesture command
     NEIGHBOUR_TIMEOUT = "neighbour_timeout"  # expected neighbours it stopped waiting for
-    FELL_BEHIND = "fell_behind"  # the swarm went on without it: it leaves
+    FELL_BEHIND = "fell_behind"  # the swarm went on without it: it left (agents before issue 36)
+    REJOINED = "rejoined"  # it stalled (frozen) while its neighbours went on, and adopted their step
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,8 @@ class Sighting:
 @dataclass(frozen=True)
 class AgentEvent:
     """One event of agent `id` at its step `step`. neighbour_timeout carries `neighbours` (ids) and, from a
-    lockstep agent, `last_seen`; command_received carries `seconds_since_session_open` [s]."""
+    lockstep agent, `last_seen`; command_received carries `seconds_since_session_open` [s]; rejoined carries
+    `from_step`, the step it stalled at (`step` is the one it adopted)."""
 
     id: int
     step: int
@@ -52,6 +54,7 @@ class AgentEvent:
     neighbours: tuple[int, ...] = ()
     last_seen: tuple[Sighting, ...] | None = None
     seconds_since_session_open: float | None = None
+    from_step: int | None = None
 
     def as_json(self) -> dict:
         """The record as a JSON object (the same keys the wire carries)."""
@@ -62,13 +65,16 @@ class AgentEvent:
                 out["last_seen"] = [[s.agent, s.step, s.distance, s.watched] for s in self.last_seen]
         elif self.kind is EventKind.COMMAND_RECEIVED:
             out["seconds_since_session_open"] = self.seconds_since_session_open
+        elif self.kind is EventKind.REJOINED:
+            out["from_step"] = self.from_step
         return out
 
 
 _FIELDS = {EventKind.STARTED: set(), EventKind.FELL_BEHIND: set(),
            EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
-           EventKind.NEIGHBOUR_TIMEOUT: {"neighbours", "last_seen"}}
-_REQUIRED = {EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"}, EventKind.NEIGHBOUR_TIMEOUT: {"neighbours"}}
+           EventKind.NEIGHBOUR_TIMEOUT: {"neighbours", "last_seen"}, EventKind.REJOINED: {"from_step"}}
+_REQUIRED = {EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"}, EventKind.NEIGHBOUR_TIMEOUT: {"neighbours"},
+             EventKind.REJOINED: {"from_step"}}
 
 
 def encode_event(event: AgentEvent) -> bytes:
@@ -104,6 +110,8 @@ def decode_event(data: bytes) -> AgentEvent | None:
             kw["neighbours"] = _listed(msg["neighbours"], lambda j: integer(j, 0, MAX_AGENT))
         if "last_seen" in msg:
             kw["last_seen"] = _listed(msg["last_seen"], _sighting)
+        if "from_step" in msg:
+            kw["from_step"] = integer(msg["from_step"], 0, MAX_STEP)
         if "seconds_since_session_open" in msg:
             kw["seconds_since_session_open"] = number(msg["seconds_since_session_open"], 0.0, MAX_SECONDS)
     except (ValueError, KeyError, TypeError, RecursionError):

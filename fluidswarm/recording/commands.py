@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import argparse
 
+from agent.protocol.errors import UserError
 from coordinator.control.fidelity import format_fidelity
-from fluidswarm.recording.reader import completeness, load_run
+from fluidswarm.recording.reader import completeness, finished, load_run, salvage_lines, salvaged
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -19,16 +20,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", help="output directory (default: RUN_replay/ beside the file)")
     p.add_argument("--check", action="store_true",
                    help="print complete=, steps=, missing_states= (and the recorded fidelity, if any); exit 0 if complete else 1")
+    p.add_argument("--recover", action="store_true",
+                   help="a file whose writer died (no footer): rewrite it finished with every whole record it "
+                        "holds; print what was kept and dropped, and complete=, steps=, missing_states=")
     p.add_argument("--max-frames", type=int, default=120, metavar="N", help="GIF frames at most (default 120)")
     p.add_argument("--fps", type=float, default=10.0, help="GIF frame rate (default 10)")
     p.set_defaults(func=_main)
 
 
 def _main(args: argparse.Namespace) -> int:
+    if args.recover:
+        return _recover(args.run)
     if args.check:
         run = load_run(args.run, images=False)
         c = completeness(run)
         print(c.lines())
+        if run.truncated:  # read up to its last whole record: its writer died
+            print(salvage_lines(run))
         for key, value in run.fidelity.items():  # the score the recorder kept with the run
             print(f"recorded_{key}={value:.4f}")
         return 0 if c.complete else 1
@@ -42,3 +50,24 @@ def _main(args: argparse.Namespace) -> int:
     for path in result.paths:
         print(f"wrote {path}")
     return 0
+
+
+def _recover(name: str) -> int:
+    """`replay --recover`: rewrite an unfinished file finished (recording/recover.py); a finished one is left."""
+    from pathlib import Path
+
+    from fluidswarm.recording.recover import rewrite
+
+    path = Path(name)
+    if finished(path):
+        print("recovered=false (the file is finished: nothing to recover)")
+    else:
+        kept = salvaged(path)
+        try:
+            rewrite(path, kept)
+        except OSError as exc:
+            raise UserError(f"{path}: cannot rewrite it ({exc.strerror or exc})") from None
+        print(f"recovered=true\n{kept.lines()}")
+    c = completeness(load_run(path, images=False))
+    print(c.lines())
+    return 0 if c.complete else 1

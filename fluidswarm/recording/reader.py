@@ -6,6 +6,9 @@ event with a `step` holds from that step on, otherwise it holds for steps at tim
 The roster is every id seen in a state or an event, plus `agent_ids` from the run metadata if present.
 Steps are the recorded ones plus any gap between the first and the last (a lost step misses every agent
 alive then).
+
+A file whose writer died (no footer) is read up to its last whole record (recording/recover.py); the Run says
+so (`truncated`, `salvage`), and completeness applies to the steps it kept.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
+from fluidswarm.recording.recover import Salvage, salvage
 from fluidswarm.recording.writer import JSON_KEYS
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -91,6 +95,11 @@ class Run:
     targets: list[Target] = field(default_factory=list)
     schemas: dict[str, str] = field(default_factory=dict)  # topic -> schema name
     fidelity: dict = field(default_factory=dict)  # the recorder's score of the final formation (metadata `fidelity`)
+    salvage: Salvage | None = None  # the file had no footer (its writer died): what was read of it
+
+    @property
+    def truncated(self) -> bool:
+        return self.salvage is not None
 
     @property
     def steps(self) -> np.ndarray:
@@ -142,7 +151,9 @@ def _frame(msg: dict, log_time: int, sequence: int) -> Frame:
     )
 
 
-def _open_checked(path: Path):
+def finished(path: Path) -> bool:
+    """True if the file at `path` is an MCAP file with its footer; False if its writer did not finish it.
+    Raises UserError naming the file if it is missing or not MCAP."""
     if not path.is_file():
         raise UserError(f"{path}: no such file")
     size = path.stat().st_size
@@ -151,18 +162,42 @@ def _open_checked(path: Path):
         fh.seek(max(0, size - len(_MAGIC)))
         tail = fh.read(len(_MAGIC))
     if head != _MAGIC:
-        raise UserError(f"{path}: not an MCAP file")
-    if tail != _MAGIC or size < 2 * len(_MAGIC):
+        raise UserError(f"{path}: not an MCAP file" + (" (empty: its writer died before writing)" if size == 0 else ""))
+    return tail == _MAGIC and size >= 2 * len(_MAGIC)
+
+
+def _open_checked(path: Path):
+    if not finished(path):
         raise UserError(f"{path}: truncated MCAP file (no footer; the recorder did not finish it)")
     return open(path, "rb")
 
 
+def salvaged(path: Path) -> Salvage:
+    """The records of an unfinished file, up to its last whole one (recording/recover.py)."""
+    try:
+        return salvage(path)
+    except McapError as exc:
+        raise UserError(f"{path}: damaged MCAP file ({exc})") from None
+
+
 def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
-    """Read the whole run. Raises UserError naming the file if it is missing, not MCAP, or damaged."""
+    """Read the whole run; a file whose writer died, up to its last whole record (`Run.truncated`). Raises
+    UserError naming the file if it is missing, not MCAP, or damaged."""
     path = Path(path)
+    if not finished(path):
+        kept = salvaged(path)
+        try:
+            run = _read(path, kept, images)
+        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+        run.salvage = kept
+        return run
     with _open_checked(path) as fh:
         try:
-            return _read(path, make_reader(fh), images)
+            reader = make_reader(fh)
+            if reader.get_summary() is None:
+                raise ValueError("no summary section")
+            return _read(path, reader, images)
         except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
@@ -183,6 +218,8 @@ def recorded_fidelity(path: str | os.PathLike) -> Fidelity | None:
     """The recorder's score of the final formation (metadata `fidelity`) without reading the steps, or None if
     the file holds none (no target, or no state)."""
     path = Path(path)
+    if not finished(path):
+        return None  # the score is written at the end: a file whose writer died has none
     with _open_checked(path) as fh:
         try:
             for record in make_reader(fh).iter_metadata():
@@ -194,9 +231,8 @@ def recorded_fidelity(path: str | os.PathLike) -> Fidelity | None:
 
 
 def _read(path: Path, reader, want_images: bool) -> Run:
-    summary = reader.get_summary()
-    if summary is None:
-        raise ValueError("no summary section")
+    """The run from `reader`: mcap's reader of a finished file, or a Salvage (iter_metadata, iter_attachments,
+    iter_messages yielding (schema, channel, message))."""
     metadata, target_meta, scores = {}, {}, {}
     for record in reader.iter_metadata():
         if record.name == "run":
@@ -253,6 +289,13 @@ class Completeness:
 
     def lines(self) -> str:
         return f"complete={'true' if self.complete else 'false'}\nsteps={self.steps}\nmissing_states={self.missing_states}"
+
+
+def salvage_lines(run: Run) -> str:
+    """For a file whose writer died: `truncated=true` and what was kept and dropped ("" for a finished file)."""
+    if run.salvage is None:
+        return ""
+    return f"truncated=true\n{run.salvage.lines()}"
 
 
 def completeness(run: Run) -> Completeness:

@@ -1,7 +1,7 @@
 """The recorder: a passive Zenoh process that writes a run to one MCAP file (docs/recording.md).
 
-It subscribes to the run's keys — every state (`state/**`), the agents' liveliness (`alive/*`) and events,
-the gesture command — and never publishes anything but its own readiness token. States are grouped by
+It subscribes to the run's keys — every state (`state/**`), the agents' liveliness (`alive/*`), events and
+final reports, the gesture command — and never publishes anything but its own readiness token. States are grouped by
 step and a step is written as one message once every agent alive at that step has reported, or once the
 run is far enough past it (then the missing agents get a `froze` event and count as stopped; a later
 state of theirs gives a `started` event). A killed agent's last state is written before its `died` event.
@@ -75,7 +75,13 @@ def main(argv: list[str] | None = None) -> int:
         except (UserError, RuntimeError) as exc:
             print(f"fluidswarm record: error: --live {args.live}: {exc}", file=sys.stderr)
             return 2
-    writer = RunWriter(args.out, metadata, live=live)
+    try:
+        writer = RunWriter(args.out, metadata, live=live)
+    except OSError as exc:
+        print(f"fluidswarm record: error: --out {args.out}: {exc.strerror or exc}", file=sys.stderr)
+        if live is not None:
+            live.close()
+        return 2
     target = None
     if args.target:
         with np.load(args.target) as t:
@@ -95,6 +101,8 @@ def main(argv: list[str] | None = None) -> int:
                                        zenoh.handlers.Callback(recorder.on_state, indirect=False)),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),
+            # the final reports: an agent that reports it finished (or was stopped) left, it did not die
+            session.declare_subscriber(keys.final_expr(args.run), recorder.on_final),
             # Direct too: an agent's alive token comes before its first state on the link, and must be queued
             # before it. Through zenoh-python's default (a thread of its own) it could be queued after the
             # others' step-0 states, and step 0 was written without that agent (test_live, under load).

@@ -1,8 +1,10 @@
 """What the recorder does with what it hears: states grouped by step and written as one message once every
 agent alive at that step has reported (or the run is far enough past it: the missing agents get a `froze`
 event and count as stopped; a later state of theirs gives a `started` event), liveliness turned into
-`started`/`died` events (a killed agent's last state is written before its `died` event), the agents' own
-events and the gesture command passed through. Zenoh callbacks only enqueue; `pump` does the work on the
+`started`/`died` events (a killed agent's last state is written before its `died` event; an agent whose final
+report says it reached its last step, or was told to stop, `finished`/`stopped` instead: its token's removal is
+its leaving, not a death), the agents' own events (with their agent and step) and the gesture command passed
+through. Zenoh callbacks only enqueue; `pump` does the work on the
 recorder's main thread (fluidswarm/recording/recorder.py, the process)."""
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
+from agent.protocol.report import Status, decode_report
 from agent.protocol.wire import decode_state
 from agent.sph.particle import P, RHO, VX, VY, X, Y
 from fluidswarm.recording.writer import RunWriter
@@ -30,6 +33,10 @@ QUIET_SECONDS = 3.0  # ... or once nothing new came from anyone for this long
 FINISH_QUIET_SECONDS = 0.3
 FINISH_LIMIT_SECONDS = 5.0
 END_STEPS = 3  # the last steps of a run may lack states cut off by its end (Recorder.last_positions)
+# s an agent's final report may come after its token's removal (declarations travel before data): how long its
+# leaving waits for the report before it is written as a death
+REPORT_GRACE_SECONDS = 1.0
+LEFT = {Status.DONE: ("finished", "finished"), Status.STOPPED: ("stopped", "was stopped")}  # kind, wording
 
 
 class Recorder:
@@ -51,6 +58,9 @@ class Recorder:
         self.last_complete: tuple[int, np.ndarray] | None = None
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
+        self.gone_at: dict[int, float] = {}  # agent -> when its token went (monotonic s), until its event is written
+        self.reported: dict[int, Status] = {}  # agent -> how its final report says it ended
+        self.skipping: dict[int, int] = {}  # agent -> the step it comes back at, after steps it skipped (rejoined)
         self.next_step = 0
         self.newest = -1
         self.rejected = 0
@@ -65,6 +75,9 @@ class Recorder:
 
     def on_event(self, sample) -> None:
         self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_final(self, sample) -> None:
+        self.inbox.put((4, (sample.payload.to_bytes(), str(sample.key_expr))))
 
     def on_command(self, sample) -> None:
         # the exact key only: a put on a wildcard key (`fluidswarm/**`) reaches this subscriber too
@@ -122,6 +135,7 @@ class Recorder:
                 self.stopped.discard(j)
                 # Its last state must be written before its death: the event waits for that step.
                 self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
+                self.gone_at[j] = time.monotonic()
                 self._write_deaths()
         elif kind == 2:
             data, key = data
@@ -132,7 +146,8 @@ class Recorder:
             if ev.kind is not EventKind.STARTED:  # lifecycle 'started' comes from liveliness, with its step
                 level = "warning" if ev.kind in (EventKind.NEIGHBOUR_TIMEOUT, EventKind.FELL_BEHIND) else "info"
                 text = json.dumps(ev.as_json(), sort_keys=True)[:2000]
-                self.writer.write_event(self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value, agent=None)
+                self.writer.write_event(self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value,
+                                        agent=ev.id, step=ev.step)
         elif kind == 3:
             try:
                 text = data.decode("utf-8")
@@ -141,11 +156,29 @@ class Recorder:
                 self.rejected += 1
                 return
             self.writer.write_command(self.t(self.next_step), text)
+        elif kind == 4:
+            data, key = data
+            report = decode_report(data)
+            if report is None or report.id != keys.id_from_key(key):
+                self.rejected += 1  # malformed, or under another agent's key
+                return
+            self.reported[report.id] = report.status
 
-    def _write_deaths(self) -> None:
+    def _write_deaths(self, force: bool = False) -> None:
+        now = time.monotonic()
         for j, first_missing in list(self.dead_at.items()):
-            if first_missing <= self.next_step:
-                del self.dead_at[j]
+            if first_missing > self.next_step:
+                continue
+            left = LEFT.get(self.reported.get(j))
+            if left is None and not force and now - self.gone_at.get(j, now) < REPORT_GRACE_SECONDS:
+                continue  # its report may still be on the way
+            del self.dead_at[j]
+            self.gone_at.pop(j, None)
+            if left is not None:
+                kind, words = left
+                self.writer.write_event(self.t(first_missing), "info", f"agent/{j}", f"agent {j} {words}",
+                                        kind=kind, agent=j, step=first_missing)
+            else:
                 self.writer.write_event(self.t(first_missing), "warning", f"agent/{j}", f"agent {j} died",
                                         kind="died", agent=j, step=first_missing)
 
@@ -170,6 +203,20 @@ class Recorder:
                 self.stopped.add(j)
                 self.writer.write_event(self.t(step), "warning", f"agent/{j}", f"agent {j} stopped reporting (frozen?)",
                                         kind="died", agent=j, step=step)
+            elif j not in self.skipping:
+                # It reported later steps but not this one: it froze and rejoined at the swarm's step
+                # (docs/protocol.md), skipping the steps between; it is away from here to its next state.
+                back = min((k for k, states in self.pending.items() if k > step and j in states), default=None)
+                if back is None:
+                    continue
+                self.skipping[j] = back
+                self.writer.write_event(self.t(step), "warning", f"agent/{j}",
+                                        f"agent {j} skipped steps {step}..{back - 1} (frozen, rejoined)",
+                                        kind="died", agent=j, step=step)
+                self.writer.write_event(self.t(back), "info", f"agent/{j}", f"agent {j} reports again at step {back}",
+                                        kind="started", agent=j, step=back)
+        for j in [j for j, back in self.skipping.items() if back <= step]:
+            del self.skipping[j]
         if not have:
             return
         ids = np.array(sorted(have), dtype=np.int64)
@@ -229,4 +276,4 @@ class Recorder:
             self.handle(self.inbox.get_nowait())
         self._flush(force=True)
         self.next_step = max(self.next_step, max(self.dead_at.values(), default=0))
-        self._write_deaths()
+        self._write_deaths(force=True)

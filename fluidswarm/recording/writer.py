@@ -22,6 +22,7 @@ import os
 import queue
 import subprocess
 import threading
+import time
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
@@ -34,6 +35,10 @@ from fluidswarm.recording import schemas as sc
 
 JSON_KEYS = "fluidswarm.json_keys"  # metadata entry listing the keys whose values are JSON text
 _STOP = object()  # end of the writer thread's queue
+# s: the longest a written message waits in the chunk in progress before the chunk reaches the file. A chunk per
+# 0.5 s costs some compression (zstd works per chunk) and one small write; a killed recorder keeps all but the last
+# ~0.5 s it had written (plus what it had not yet written: steps wait for their last agent, recording/steps.py).
+FLUSH_SECONDS = 0.5
 
 
 def code_version() -> str:
@@ -78,8 +83,10 @@ class RunWriter:
     """Write one run to `path`. `metadata` goes to the MCAP metadata record `run` (see `encode_metadata`);
     its `run` entry names the run in the topics (default: the file's stem); `code_version` is added."""
 
-    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024, live=None):
-        """`live` (recording.live.LiveServer or None): also gets every message, as it is written."""
+    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024, live=None,
+                 flush_seconds: float = FLUSH_SECONDS):
+        """`live` (recording.live.LiveServer or None): also gets every message, as it is written;
+        `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS)."""
         meta = dict(metadata)
         self.run = str(meta.get("run") or Path(path).stem)
         if not self.run or any(c in self.run for c in "/*$?#") or self.run.strip() != self.run:
@@ -106,6 +113,9 @@ class RunWriter:
         self._targets = 0
         self._live = live
         self._mcap.add_metadata("run", encode_metadata(meta))
+        self._flush_seconds = float(flush_seconds)
+        self._mcap.flush()  # the header and the run's metadata: a file killed at once is still an MCAP file
+        self._unflushed = False
         self._thread = threading.Thread(target=self._drain, name=f"RunWriter[{self.path.name}]", daemon=False)
         self._thread.start()
 
@@ -140,16 +150,27 @@ class RunWriter:
         """The writer thread: the only code that touches the MCAP writer, so an exception raised in the
         main thread by a signal handler can never leave a chunk half-written."""
         try:
+            flushed = time.monotonic()
             while True:
+                left = flushed + self._flush_seconds - time.monotonic()
                 try:
-                    op = self._queue.get(timeout=0.2)
+                    op = self._queue.get(timeout=max(0.0, min(left, 0.2)) if self._unflushed else 0.2)
                 except queue.Empty:
+                    op = None
                     if not threading.main_thread().is_alive():  # interpreter exiting without close()
                         break
-                    continue
                 if op is _STOP:
                     break
-                op()
+                if op is not None:
+                    op()
+                    self._unflushed = True
+                if self._unflushed and time.monotonic() - flushed >= self._flush_seconds:
+                    # the chunk in progress (if any) and every record before it, into the kernel's hands
+                    self._mcap.flush()
+                    self._unflushed = False
+                    flushed = time.monotonic()
+                elif not self._unflushed:
+                    flushed = time.monotonic()
         except BaseException as exc:  # reported by close() and the next write
             self._error = exc
         finally:

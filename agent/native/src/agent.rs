@@ -48,11 +48,14 @@ pub use state_bus::Tuning;
 
 /// A neighbour state further ahead than this is bogus (agent/process.py: MAX_AHEAD).
 const MAX_AHEAD: u32 = 1000;
-/// Distinct senders within the support, BEHIND_STEPS or more steps ahead, mean the swarm dropped this agent.
+/// Distinct senders within the support, BEHIND_STEPS or more steps ahead, mean the swarm went on without this
+/// (stalled) agent: it rejoins at their step (lifecycle.rs, `rejoin`).
 const BEHIND_SENDERS: usize = 2;
 const BEHIND_STEPS: u32 = 5;
+/// timeouts after a resume (see `Agent::resumed_at`) during which neighbours far ahead mean it should rejoin
+const REJOIN_WINDOW: f64 = 2.0;
 /// A neighbour at most this many steps behind is waited for (a slower group catching up); one further
-/// behind has stalled and is not (it catches up from the queued states or leaves, see FellBehind).
+/// behind has stalled and is not (it catches up from the queued states or rejoins, see `Agent::rejoin`).
 const LAG_WAIT_STEPS: i64 = 3;
 /// Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
 const CLOCK_LEAD: u64 = 3;
@@ -72,7 +75,6 @@ pub static STOP: AtomicBool = AtomicBool::new(false);
 #[derive(Debug)]
 pub enum Halt {
     Stop,
-    FellBehind,
     NoStart,
 }
 
@@ -105,6 +107,14 @@ pub struct Agent {
     heard_at: HashMap<u32, Instant>,
     dead: HashSet<u32>,
     ahead_senders: HashSet<u32>,
+    /// set by the receive path when BEHIND_SENDERS neighbours went on without this stalled agent: the step loop
+    /// rejoins at their step before its next step (a flag, not an error: the rest of the batch is still handled)
+    behind: bool,
+    /// when the main thread last looked at its inbox; a gap longer than the timeout means the process did not run
+    /// (SIGSTOP, a host that froze): `resumed_at` is then set, and for REJOIN_WINDOW timeouts after it the agent
+    /// counts as stalled (it catches up a step or two from old states before its neighbours' new ones arrive)
+    awake_at: Instant,
+    resumed_at: Option<Instant>,
     fresh: HashMap<u32, (Instant, State)>,
     clock: Option<u64>,
     /// ctl/end: the launcher saw the formation settle; finish at this step (capped by the spec's steps)
@@ -156,6 +166,9 @@ impl Agent {
             heard_at: HashMap::new(),
             dead: HashSet::new(),
             ahead_senders: HashSet::new(),
+            behind: false,
+            awake_at: Instant::now(),
+            resumed_at: None,
             fresh: HashMap::new(),
             clock: None,
             end: None,

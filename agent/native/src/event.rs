@@ -25,8 +25,10 @@ pub enum EventKind {
     CommandReceived { seconds_since_session_open: f64 },
     /// expected neighbours it stopped waiting for; `last_seen` from a lockstep agent only
     NeighbourTimeout { neighbours: Vec<u32>, last_seen: Option<Vec<Sighting>> },
-    /// the swarm went on without it: it leaves
+    /// the swarm went on without it: it leaves (agents before issue 36; today's rejoin instead)
     FellBehind,
+    /// it stalled (frozen) while its neighbours went on, and adopted their step; `from_step`: where it stalled
+    Rejoined { from_step: u32 },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +45,7 @@ impl Event {
             EventKind::CommandReceived { .. } => "command_received",
             EventKind::NeighbourTimeout { .. } => "neighbour_timeout",
             EventKind::FellBehind => "fell_behind",
+            EventKind::Rejoined { .. } => "rejoined",
         }
     }
 
@@ -65,6 +68,9 @@ impl Event {
                         .collect();
                     m.insert("last_seen".into(), Value::Array(rows));
                 }
+            }
+            EventKind::Rejoined { from_step } => {
+                m.insert("from_step".into(), json!(from_step));
             }
             EventKind::Started | EventKind::FellBehind => {}
         }

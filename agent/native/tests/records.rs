@@ -47,6 +47,7 @@ fn event_of(v: &Value) -> Event {
     let kind = match v["event"].as_str().unwrap() {
         "started" => EventKind::Started,
         "fell_behind" => EventKind::FellBehind,
+        "rejoined" => EventKind::Rejoined { from_step: u32_of(&v["from_step"]) },
         "command_received" => EventKind::CommandReceived {
             seconds_since_session_open: v["seconds_since_session_open"].as_f64().unwrap(),
         },

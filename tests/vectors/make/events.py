@@ -18,6 +18,7 @@ def event_vectors() -> list:
     cases = [
         ("started", {"v": 1, "id": 0, "step": 0, "event": "started"}),
         ("fell_behind", {"v": 1, "id": 12, "step": 88, "event": "fell_behind"}),
+        ("rejoined", {"v": 1, "id": 12, "step": 130, "event": "rejoined", "from_step": 88}),
         ("command_received", {"v": 1, "id": 5, "step": 0, "event": "command_received",
                               "seconds_since_session_open": 1.5}),
         ("command_received_int_seconds", {"v": 1, "id": 5, "step": 0, "event": "command_received",
@@ -48,6 +49,8 @@ def event_vectors() -> list:
                               "seconds_since_session_open": -0.5}),
         ("seconds_bool", {"v": 1, "id": 5, "step": 0, "event": "command_received", "seconds_since_session_open": True}),
         ("neighbours_missing", {"v": 1, "id": 7, "step": 42, "event": "neighbour_timeout"}),
+        ("rejoined_from_step_missing", {"v": 1, "id": 12, "step": 130, "event": "rejoined"}),
+        ("rejoined_from_step_negative", {"v": 1, "id": 12, "step": 130, "event": "rejoined", "from_step": -1}),
         ("neighbours_not_list", {"v": 1, "id": 7, "step": 42, "event": "neighbour_timeout", "neighbours": 3}),
         ("neighbours_too_many", {"v": 1, "id": 7, "step": 42, "event": "neighbour_timeout",
                                  "neighbours": list(range(MAX_LISTED + 1))}),

@@ -75,6 +75,12 @@ impl Agent {
         if STOP.load(Ordering::Relaxed) {
             return Err(Halt::Stop);
         }
+        // Called at least every 0.25 s while the agent runs: a longer gap is a freeze (receive.rs: rejoining)
+        let now = Instant::now();
+        if now.saturating_duration_since(self.awake_at).as_secs_f64() > self.spec.timeout {
+            self.resumed_at = Some(now);
+        }
+        self.awake_at = now;
         let shared = Arc::clone(&self.shared);
         let batch = {
             let mut inbox = shared.inbox.lock().unwrap_or_else(|e| e.into_inner());

@@ -9,7 +9,7 @@ use zenoh::Wait;
 
 use super::inbox::Msg;
 use super::report::cpu_seconds;
-use super::{unix_now, Agent, Halt, EXIT_FELL_BEHIND, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
+use super::{unix_now, Agent, Halt, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
 use crate::event::EventKind;
 use crate::final_report::Status;
 use crate::keys;
@@ -26,11 +26,6 @@ impl Agent {
                 self.publish(); // the final state, so neighbours still waiting for it are not held up
                 self.report(Status::Done);
                 EXIT_OK
-            }
-            Err(Halt::FellBehind) => {
-                self.event(EventKind::FellBehind);
-                self.report(Status::FellBehind);
-                EXIT_FELL_BEHIND
             }
             Err(Halt::Stop) => {
                 self.report(Status::Stopped);
@@ -101,6 +96,28 @@ impl Agent {
                 self.latest.insert(j, (-1, f64::NAN, f64::NAN));
             }
         }
+    }
+
+    /// A stalled agent (SIGSTOP, a host that froze) whose neighbours went on without it rejoins as a late joiner
+    /// does (docs/protocol.md, "Rejoining"): it takes what was queued while it was frozen, adopts the step after
+    /// the newest it heard from those neighbours, forgets its own older steps' states, and says so (`rejoined`,
+    /// with the step it was at). Its particle keeps the state it froze with; at the swarm's last step it is done.
+    pub(super) fn rejoin(&mut self) -> Result<(), Halt> {
+        self.drain(0.0)?; // the rest of the backlog: the newest sightings
+        let from = self.step;
+        let newest = self.ahead_senders.iter().filter_map(|j| self.latest.get(j)).map(|l| l.0).max();
+        if let Some(s) = newest {
+            let to = u32::try_from(s.saturating_add(1)).unwrap_or(from);
+            self.step = to.max(from).min(self.last_step());
+        }
+        self.behind = false;
+        self.resumed_at = None;
+        self.ahead_senders.clear();
+        let step = self.step;
+        self.buffer.retain(|&s, _| s >= step);
+        self.last_step_done = Instant::now();
+        self.event(EventKind::Rejoined { from_step: from });
+        Ok(())
     }
 
     /// A late joiner adopts the step of the first state it hears around it (docs/protocol.md).

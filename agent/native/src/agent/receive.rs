@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use super::inbox::Msg;
-use super::{unix_now, Agent, Halt, BEHIND_SENDERS, BEHIND_STEPS, MAX_AHEAD};
+use super::{unix_now, Agent, Halt, BEHIND_SENDERS, BEHIND_STEPS, MAX_AHEAD, REJOIN_WINDOW};
 use crate::ctl::{self, Ctl};
 use crate::event::EventKind;
 use crate::keys;
@@ -120,15 +120,18 @@ impl Agent {
         self.buffer.entry(step).or_default().insert(j, values);
         if self.started && step >= self.step + BEHIND_STEPS {
             // A particle within the support this far ahead is no longer waiting for us; only an agent
-            // that itself stalled (SIGSTOP) concludes it was dropped, a slower group is waited for.
+            // that itself stalled (SIGSTOP) concludes the swarm went on without it and rejoins at its step (a
+            // slower group is waited for).
             let dx = values[X] - self.state[X];
             let dy = values[Y] - self.state[Y];
-            let stalled = self.last_step_done.elapsed().as_secs_f64() > self.spec.timeout;
+            let timeout = self.spec.timeout;
+            let stalled = self.last_step_done.elapsed().as_secs_f64() > timeout
+                || self.resumed_at.is_some_and(|t| t.elapsed().as_secs_f64() < REJOIN_WINDOW * timeout);
             let support = self.params.support();
             if stalled && dx * dx + dy * dy <= support * support {
                 self.ahead_senders.insert(j);
                 if self.ahead_senders.len() >= BEHIND_SENDERS {
-                    return Err(Halt::FellBehind);
+                    self.behind = true;
                 }
             }
         }

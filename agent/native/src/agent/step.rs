@@ -25,20 +25,30 @@ impl Agent {
     pub(super) fn run_lockstep(&mut self) -> Result<(), Halt> {
         let mut rows: Vec<State> = Vec::with_capacity(32);
         while self.step < self.last_step() {
+            if self.behind {
+                self.rejoin()?; // resumed after a freeze: adopt the swarm's step (lifecycle.rs)
+                continue;
+            }
             // An isolated particle must not run ahead of the swarm (the launcher's clock).
             if self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) {
                 self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = true;
-                while self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) {
+                while self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) && !self.behind {
                     if let Err(h) = self.drain(0.05) {
                         return Err(h);
                     }
                 }
                 self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = false;
+                if self.behind {
+                    continue;
+                }
             }
             self.publish();
             let expected = self.expected();
             self.wait_for(&expected)?;
             self.drain(0.0)?;
+            if self.behind {
+                continue;
+            }
             rows.clear();
             if let Some(current) = self.buffer.remove(&self.step) {
                 rows.extend(current.into_values()); // BTreeMap: sorted by id, as the reference driver

@@ -72,6 +72,9 @@ impl Agent {
         let mut resend_at = start + resend_every;
         loop {
             self.drain(0.0)?;
+            if self.behind {
+                return Ok(()); // the swarm went on: the step loop rejoins it (no timeout to wait out)
+            }
             let step = self.step;
             let have = self.buffer.get(&step);
             let present = |j: &u32| have.is_some_and(|h| h.contains_key(j));

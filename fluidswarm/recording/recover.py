@@ -1,0 +1,149 @@
+"""A recording whose writer died (SIGKILL, power loss): read what reached the file, or rewrite it finished.
+
+Such a file has the MCAP header and the records the writer had flushed (recording/writer.py flushes the chunk
+in progress every FLUSH_SECONDS), then stops anywhere, possibly inside a record; it has no summary and no
+footer, so the seeking reader cannot open it. `salvage` reads it with mcap's own StreamReader, record by record
+in file order — the semantics of `mcap recover`: every whole record before the point where the file ends or
+stops making sense is kept, a chunk that does not decompress or fails its CRC is dropped (and counted), and the
+rest from the first broken record framing on is dropped (its bytes counted). `rewrite` writes the kept records
+into a finished MCAP (summary, indexes, footer) in place of the damaged file.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import tempfile
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mcap.exceptions import McapError
+from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.writer import CompressionType, IndexType, Writer
+
+# What a broken file can raise while its records are decoded (a truncated tail, garbage lengths, bad zstd)
+BROKEN = (McapError, EOFError, struct.error, ValueError, KeyError, IndexError, OverflowError, MemoryError, zlib.error)
+
+
+@dataclass
+class Salvage:
+    """The records of a file read in order up to where it breaks off."""
+
+    schemas: dict[int, Schema] = field(default_factory=dict)
+    channels: dict[int, Channel] = field(default_factory=dict)
+    messages: list[Message] = field(default_factory=list)
+    metadata: list[Metadata] = field(default_factory=list)
+    attachments: list[Attachment] = field(default_factory=list)
+    chunks_kept: int = 0
+    chunks_dropped: int = 0  # whole chunks that did not decompress or failed their CRC
+    bytes_kept: int = 0  # the file's bytes up to the end of its last whole record
+    bytes_total: int = 0
+    finished: bool = False  # it has its footer: nothing was lost
+    why: str = ""  # where and why reading stopped early
+
+    @property
+    def bytes_dropped(self) -> int:
+        return self.bytes_total - self.bytes_kept
+
+    # the reader's interface (recording/reader.py `_read`)
+    def iter_metadata(self):
+        return iter(self.metadata)
+
+    def iter_attachments(self):
+        return iter(self.attachments)
+
+    def iter_messages(self):
+        for m in self.messages:
+            channel = self.channels.get(m.channel_id)
+            if channel is not None:  # a message whose channel record was lost is unreadable
+                yield self.schemas.get(channel.schema_id), channel, m
+
+    def lines(self) -> str:
+        return (f"chunks_kept={self.chunks_kept}\nchunks_dropped={self.chunks_dropped}\n"
+                f"bytes_kept={self.bytes_kept}\nbytes_dropped={self.bytes_dropped}")
+
+
+def salvage(path: str | os.PathLike) -> Salvage:
+    """Every whole record of the file at `path`, in order (module docstring). Raises McapError if it does not
+    even start as an MCAP file."""
+    path = Path(path)
+    out = Salvage(bytes_total=path.stat().st_size)
+    with open(path, "rb") as fh:
+        reader = StreamReader(fh, emit_chunks=True, record_size_limit=out.bytes_total)
+        records = reader.records
+        try:
+            first = True
+            for record in records:
+                first = False
+                if isinstance(record, Chunk):
+                    try:
+                        inner = breakup_chunk(record, validate_crc=True)
+                    except BROKEN:
+                        out.chunks_dropped += 1
+                        out.bytes_kept = reader._stream.count
+                        continue
+                    out.chunks_kept += 1
+                    for r in inner:
+                        _take(out, r)
+                else:
+                    _take(out, record)
+                    if isinstance(record, Footer):
+                        out.finished = True
+                out.bytes_kept = reader._stream.count
+        except BROKEN as exc:
+            if first and out.bytes_kept == 0:
+                raise McapError(f"not an MCAP file ({type(exc).__name__})") from None
+            out.why = f"the file breaks off after byte {out.bytes_kept} ({type(exc).__name__})"
+    return out
+
+
+def _take(out: Salvage, record) -> None:
+    if isinstance(record, Schema):
+        out.schemas[record.id] = record
+    elif isinstance(record, Channel):
+        out.channels[record.id] = record
+    elif isinstance(record, Message):
+        out.messages.append(record)
+    elif isinstance(record, Metadata):
+        out.metadata.append(record)
+    elif isinstance(record, Attachment):
+        out.attachments.append(record)
+
+
+def rewrite(path: str | os.PathLike, kept: Salvage) -> Path:
+    """Write `kept` as a finished MCAP in place of `path` (a new file renamed over it, so a failure leaves
+    the damaged one as it was); returns the path."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".recovering", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            w = Writer(stream, compression=CompressionType.ZSTD, index_types=IndexType.ALL, use_chunking=True,
+                       use_statistics=True, use_summary_offsets=True)
+            w.start(profile="", library="fluidswarm replay --recover")
+            schema_ids, channel_ids = {}, {}
+            for m in kept.metadata:
+                w.add_metadata(m.name, dict(m.metadata))
+            for a in kept.attachments:
+                w.add_attachment(create_time=a.create_time, log_time=a.log_time, name=a.name,
+                                 media_type=a.media_type, data=a.data)
+            for schema, channel, m in kept.iter_messages():
+                if channel.id not in channel_ids:
+                    sid = 0
+                    if schema is not None:
+                        if schema.id not in schema_ids:
+                            schema_ids[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
+                        sid = schema_ids[schema.id]
+                    channel_ids[channel.id] = w.register_channel(channel.topic, channel.message_encoding, sid,
+                                                                 dict(channel.metadata))
+                w.add_message(channel_ids[channel.id], log_time=m.log_time, data=m.data, publish_time=m.publish_time,
+                              sequence=m.sequence)
+            w.finish()
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
