@@ -11,7 +11,7 @@ AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
 ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
 
-.PHONY: demo test install clean bench agent
+.PHONY: demo test install clean bench agent fuzz netfault-tools
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
@@ -36,11 +36,35 @@ demo: install
 # Unit tests first (no processes, about a minute), then the swarm tests (tests/conftest.py draws the line);
 # both always run: the swarm tests run even when a unit test failed, and `make test` fails if either did.
 # The swarm tests list their slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
-test: install
+test: install netfault-tools
 	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
 	$(BIN)/python -m pytest -q -m "not swarm" tests; unit=$$?; \
 	$(BIN)/python -m pytest -q -m swarm --durations=10 tests; swarm=$$?; \
 	test $$unit -eq 0 -a $$swarm -eq 0
+
+# The network-fault tests (tests/test_netfaults.py) need nftables; CI runs as root on a fresh machine.
+netfault-tools:
+	@command -v nft >/dev/null 2>&1 || test "$$(id -u)" != 0 || apt-get install -y -q nftables >/dev/null \
+		|| { apt-get update -q >/dev/null && apt-get install -y -q nftables >/dev/null; }
+
+# `make fuzz` (not part of `make test`): every decoder's fuzz target for FUZZ_SECONDS each, inputs tried per
+# target (fuzz/run.py, docs/benchmarks/fuzz.md). The Rust targets are built by cargo-fuzz (installed from
+# crates.io on first use) with rustup's nightly toolchain, which libFuzzer's instrumentation needs; the
+# Python ones run under atheris (the `fuzz` extra).
+FUZZ_SECONDS ?= 30
+FUZZ_STAMP := $(VENV)/.fuzz-installed
+CARGO_FUZZ_VERSION := 0.13.2
+
+$(FUZZ_STAMP): $(STAMP) pyproject.toml
+	$(BIN)/python -m pip install --quiet -e '.[test,fuzz]'
+	touch $(FUZZ_STAMP)
+
+fuzz: $(FUZZ_STAMP)
+	@$(CARGO) +nightly --version >/dev/null 2>&1 \
+		|| { echo "make fuzz: needs rustup's nightly toolchain beside stable (rustup toolchain install nightly)"; exit 1; }
+	$(CARGO) fuzz --version 2>/dev/null | grep -q '$(CARGO_FUZZ_VERSION)' \
+		|| $(CARGO) install cargo-fuzz --version $(CARGO_FUZZ_VERSION) --locked
+	CARGO=$(CARGO) $(BIN)/python fuzz/run.py --seconds $(FUZZ_SECONDS)
 
 bench: install
 	$(BIN)/fluidswarm bench

@@ -158,6 +158,8 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{file}: not valid TOML ({exc})") from None
+    except RecursionError:  # arrays or inline tables nested deeper than tomllib's stack
+        raise UserError(f"{file}: not valid TOML (nested too deep)") from None
     top = {"name", "description", "experiment", "input", "frame", "frame_steps", "controller", "agents", "steps", "dt",
            "seed", "sync", "async_rate", "async_max_age", "neighbour_timeout", "sph", "failures", "pass"}
     _check_keys(file, "", raw, top)

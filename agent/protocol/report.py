@@ -100,7 +100,7 @@ def decode_report(data: bytes) -> FinalReport | None:
         for name in _OPTIONAL_TIMES:
             if msg.get(name) is not None:
                 kw[name] = number(msg[name], -MAX_ABS, MAX_ABS)
-    except (ValueError, KeyError, TypeError):
+    except (ValueError, KeyError, TypeError, RecursionError):  # RecursionError: nested deeper than json's stack
         return None
     return FinalReport(**kw)
 

@@ -97,6 +97,8 @@ class AgentSpec:
             raw = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ValueError(f"agent spec: not JSON ({exc.msg})") from None
+        except RecursionError:  # found by fuzzing (tests/vectors/fuzz.json): deeper than json's stack
+            raise ValueError("agent spec: not JSON (nested too deep)") from None
         if not isinstance(raw, dict):
             raise ValueError("agent spec: must be a JSON object")
         known = set(cls.__dataclass_fields__)
@@ -140,12 +142,14 @@ class AgentSpec:
         self.static_control()
 
     def sph_params(self) -> SPHParams:
+        if not isinstance(self.params, dict):
+            raise ValueError(f"agent spec: params must be an object, got {self.params!r}")
         p = dict(self.params)
-        if "domain" in p:
-            p["domain"] = tuple(p["domain"])
         try:
+            if "domain" in p:
+                p["domain"] = tuple(p["domain"])
             return SPHParams(**p)
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:  # SPHParams' own checks name the field (found by fuzzing)
             raise ValueError(f"agent spec: params: {exc}") from None
 
     def static_control(self) -> Control:

@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from zstandard import ZstdError
 
 from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity
@@ -33,6 +34,10 @@ from fluidswarm.recording.recover import Salvage, salvage
 from fluidswarm.recording.writer import JSON_KEYS
 
 _MAGIC = b"\x89MCAP0\r\n"
+# What the mcap reader raises on a damaged file: its own errors, the struct/record decoding's, and what it lets
+# through (found by fuzzing): the decompressors' (zstd's ZstdError, lz4's RuntimeError) and the MemoryError of
+# a length field that claims more than memory holds (it reads that many bytes).
+_DAMAGED = (McapError, struct.error, EOFError, ValueError, KeyError, TypeError, ZstdError, RuntimeError, MemoryError)
 
 
 @dataclass(frozen=True)
@@ -176,7 +181,7 @@ def salvaged(path: Path) -> Salvage:
     """The records of an unfinished file, up to its last whole one (recording/recover.py)."""
     try:
         return salvage(path)
-    except McapError as exc:
+    except _DAMAGED as exc:
         raise UserError(f"{path}: damaged MCAP file ({exc})") from None
 
 
@@ -188,7 +193,7 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
         kept = salvaged(path)
         try:
             run = _read(path, kept, images)
-        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+        except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
         run.salvage = kept
         return run
@@ -198,7 +203,7 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
             if reader.get_summary() is None:
                 raise ValueError("no summary section")
             return _read(path, reader, images)
-        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+        except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
 
@@ -225,7 +230,7 @@ def recorded_fidelity(path: str | os.PathLike) -> Fidelity | None:
             for record in make_reader(fh).iter_metadata():
                 if record.name == "fidelity":
                     return as_fidelity(_scores(record.metadata))
-        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+        except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
     return None
 

@@ -4,6 +4,7 @@
 //! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl, event and final_report
 //! (agent/protocol/ctl.py, events.py, report.py).
 
+#[cfg(feature = "net")]
 pub mod agent;
 pub mod command;
 pub mod ctl;
@@ -13,6 +14,7 @@ pub mod final_report;
 pub mod keys;
 pub mod relay;
 pub mod route;
+#[cfg(feature = "net")]
 pub mod session;
 pub mod spec;
 pub mod sph;

@@ -10,12 +10,12 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, RwLock};
+use std::sync::RwLock;
+#[cfg(feature = "net")]
+use std::sync::Mutex;
 
-use zenoh::key_expr::KeyExpr;
-use zenoh::qos::CongestionControl;
-use zenoh::sample::{Locality, Sample};
-use zenoh::{Session, Wait};
+#[cfg(feature = "net")]
+use zenoh::{key_expr::KeyExpr, qos::CongestionControl, sample::{Locality, Sample}, Session, Wait};
 
 use crate::keys;
 use crate::wire;
@@ -101,10 +101,12 @@ impl RelayTable {
 /// The relay on `session`: one subscriber on every id key of the run, whose callback routes and puts each
 /// state on zenoh's receiving thread (no hand-over: the put is routed right there, as the router forwards
 /// any message).
+#[cfg(feature = "net")]
 pub struct StateRelay {
     _sub: zenoh::pubsub::Subscriber<()>,
 }
 
+#[cfg(feature = "net")]
 impl StateRelay {
     pub fn start(session: &Session, table: std::sync::Arc<RelayTable>) -> zenoh::Result<StateRelay> {
         let cells: Mutex<HashMap<(i64, i64), KeyExpr<'static>>> = Mutex::default();

@@ -1,0 +1,240 @@
+"""The fuzz targets of the Python decoders: each takes the bytes a peer, a file or a user could hand it and
+fails (AssertionError, or the exception the decoder let escape) only on a bug: a decoder that raised
+something other than its own error type with a reason, or accepted what it must refuse. `make fuzz` runs them
+under atheris (coverage-guided, fuzz/run.py); tests/test_fuzz_decoders.py runs them briefly with hypothesis.
+
+What each checks:
+state     agent/protocol/wire.py   a record that decodes re-encodes to the same bytes (reserved u16 aside),
+                                   values finite and bounded, density > 0; a refusal is one of three reasons
+ctl       agent/protocol/ctl.py    first byte: the key's kind; an accepted message re-encodes to the payload
+command   agent/protocol/command.py  first byte even: the whole envelope; odd: a body the harness signs with
+                                   the run's secret (the fuzzer gets behind the HMAC). An accepted command is
+                                   within docs/command.md's bounds and survives encode -> decode; another
+                                   secret accepts nothing; a refusal is CommandRejected with its reason
+event     agent/protocol/events.py an accepted event survives encode -> decode; else None
+report    agent/protocol/report.py an accepted report is within its bounds and survives a re-encode; else None
+spec      agent/protocol/spec.py   an accepted spec survives to_json -> from_json; a refusal is a one-line
+                                   ValueError "agent spec: ..."
+scenario  fluidswarm/scenario.py   (a TOML file) an accepted scenario is within its bounds; a refusal is one
+                                   UserError line naming the file
+users     agent/protocol/access.py (a users file) accepted lines are roles with valid, unique credentials;
+                                   a refusal is one AuthFileError line naming the file
+mcap      fluidswarm/recording/reader.py  what `replay --check` does: load_run and completeness; a refusal is
+                                   one UserError line naming the file
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tempfile
+
+from agent.protocol import command as cmd_mod
+from agent.protocol import ctl as ctl_mod
+from agent.protocol import events as ev_mod
+from agent.protocol import report as rep_mod
+from agent.protocol import wire
+from agent.protocol.access import ROLES, AuthFileError, _PASSWORD_RE, agent_id_of, read_users_file
+from agent.protocol.errors import UserError
+from agent.protocol.keys import MAX_AGENTS, valid_run_name
+from agent.protocol.spec import AgentSpec
+from fluidswarm.recording.reader import completeness, load_run
+from fluidswarm.scenario import load_scenario
+
+SECRET = bytes(range(32))  # the shared vectors' secret (tests/vectors/make/common.py): their envelopes seed
+OTHER = b"another run's secret"
+_HEAD = b'{"v":1,"body":'
+_WHATS = (None, "start", "stop", "clock", "end", "gone", "", "clocks")
+
+
+def _one_line(exc: BaseException, starts: str) -> None:
+    text = str(exc)
+    assert text.startswith(starts) and "\n" not in text, f"not one line starting {starts!r}: {text!r}"
+
+
+def state(data: bytes) -> None:
+    rec, reason = wire.decode_state(data)
+    if rec is None:
+        assert reason in (wire.REJECT_LENGTH, wire.REJECT_VERSION, wire.REJECT_VALUE), reason
+        if reason != wire.REJECT_VALUE:
+            assert wire.peek_id_position(data) == (None, reason)
+        return
+    agent_id, step, cls, values = rec
+    assert reason is None and len(values) == 10
+    assert all(math.isfinite(v) and abs(v) <= wire.MAX_ABS for v in values[:9]) and values[4] > 0
+    assert values[9] in (0.0, 1.0) and 0 <= agent_id <= wire.MAX_ID
+    assert wire.encode_state(agent_id, step, values, cls) == data[:14] + b"\0\0" + data[16:], "re-encode"
+    assert wire.peek_id_step(data) == (agent_id, step)
+    assert wire.peek_id_position(data) == ((agent_id, values[0], values[1]), None)
+
+
+def ctl(data: bytes) -> None:
+    if not data:
+        return
+    what, payload = _WHATS[data[0] % len(_WHATS)], data[1:]
+    msg = ctl_mod.decode_ctl(what, payload)
+    if msg is not None:
+        assert ctl_mod.kind_of(msg).what == what
+        assert ctl_mod.encode_ctl(msg) == payload, (msg, payload)
+
+
+def _signed(body: bytes) -> bytes:
+    import hashlib
+    import hmac
+
+    return _HEAD + body + b',"sig":"' + hmac.new(SECRET, body, hashlib.sha256).hexdigest().encode() + b'"}'
+
+
+def _in(v, lo, hi) -> bool:
+    return isinstance(v, float) and math.isfinite(v) and lo <= v <= hi
+
+
+def _check_command(c: cmd_mod.GestureCommand) -> None:
+    assert 0 <= c.seq < 2**62 and 1 <= c.n_agents <= 100000 and len(c.gesture) <= 64
+    assert 1 <= len(c.classes) <= cmd_mod.MAX_CLASSES and _in(c.beta, 0, 1e4) and _in(c.mu, 0, 1e4)
+    assert sum(k.share for k in c.classes) > 0 and isinstance(c.extra, dict)
+    for k in c.classes:
+        assert len(k.name) <= 64 and _in(k.share, 0, 1e6) and 1 <= len(k.route) <= cmd_mod.MAX_ROUTE
+        for w in k.route:
+            assert _in(w.x, -1e6, 1e6) and _in(w.y, -1e6, 1e6) and _in(w.r, 0, 1e6) and _in(w.s, 0, 1e6)
+            assert _in(w.alpha, 0, 1e4) and (w.beta is None or _in(w.beta, 0, 1e4)) and (w.mu is None or _in(w.mu, 0, 1e4))
+    if c.fill is not None:
+        rings = c.fill.rings
+        assert 1 <= len(rings) <= cmd_mod.MAX_RINGS and sum(map(len, rings)) <= cmd_mod.MAX_VERTICES
+        assert all(len(r) >= 3 for r in rings) and not cmd_mod.edges_cross(rings)
+        assert all(_in(x, -1e6, 1e6) and _in(y, -1e6, 1e6) for r in rings for x, y in r)
+        assert _in(c.fill.alpha, 0, 1e4) and _in(c.fill.s, 0, 1e6) and len(c.fill.zones) <= cmd_mod.MAX_ZONES
+        for z in c.fill.zones:
+            assert abs(z.ux**2 + z.uy**2 - 1) <= 1e-6 and z.a > 0 and z.b > 0
+
+
+def command(data: bytes) -> None:
+    if not data:
+        return
+    envelope = data[1:] if data[0] % 2 == 0 else _signed(data[1:])
+    try:
+        c = cmd_mod.decode(envelope, SECRET)
+    except cmd_mod.CommandRejected as exc:
+        assert exc.reason in ("malformed", "version", "signature"), exc.reason
+        return
+    _check_command(c)
+    assert cmd_mod.decode(c.encode(SECRET), SECRET) == c, "encode -> decode changed the command"
+    try:
+        cmd_mod.decode(envelope, OTHER)
+    except cmd_mod.CommandRejected:
+        pass
+    else:
+        raise AssertionError("accepted under another secret")
+
+
+def event(data: bytes) -> None:
+    ev = ev_mod.decode_event(data)
+    if ev is None:
+        return
+    assert 0 <= ev.id <= ev_mod.MAX_AGENT and 0 <= ev.step <= ev_mod.MAX_STEP
+    assert ev_mod.decode_event(ev_mod.encode_event(ev)) == ev, "encode -> decode changed the event"
+
+
+def _report_json(r: rep_mod.FinalReport) -> bytes:
+    d = dataclasses.asdict(r)
+    d.update(v=rep_mod.VERSION, status=r.status.value, state=list(r.state))
+    return json.dumps(d, allow_nan=False).encode()
+
+
+def report(data: bytes) -> None:
+    r = rep_mod.decode_report(data)
+    if r is None:
+        return
+    assert 0 <= r.id < 2**31 and 9 <= len(r.state) <= 10 and len(r.rejected) <= 64 and len(r.agent) <= 32
+    assert all(math.isfinite(v) and abs(v) <= rep_mod.MAX_ABS for v in r.state)
+    assert all(0 <= getattr(r, n) <= rep_mod.MAX_COUNT for n in ("steps", "msgs_received", "lost", "stale"))
+    assert all(isinstance(k, str) and len(k) <= 64 and 0 <= v for k, v in r.rejected.items())
+    assert rep_mod.decode_report(_report_json(r)) == r, "re-encode -> decode changed the report"
+
+
+def spec(data: bytes) -> None:
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        return
+    try:
+        s = AgentSpec.from_json(text)
+    except ValueError as exc:
+        _one_line(exc, "agent spec: ")
+        return
+    assert valid_run_name(s.run) and 0 <= s.id < MAX_AGENTS and isinstance(s.params, dict)
+    assert isinstance(s.control, dict) and all(math.isfinite(v) for v in s.initial)
+    assert AgentSpec.from_json(s.to_json()) == s, "to_json -> from_json changed the spec"
+
+
+class _Scratch:
+    """One file per process, rewritten for every input (tmpfs when there is one: an input costs no disk)."""
+
+    def __init__(self, suffix: str):
+        base = "/dev/shm" if os.path.isdir("/dev/shm") else None
+        fd, self.path = tempfile.mkstemp(prefix="fluidswarm-fuzz-", suffix=suffix, dir=base)
+        os.close(fd)
+
+    def holding(self, data: bytes) -> str:
+        with open(self.path, "wb") as f:
+            f.write(data)
+        return self.path
+
+
+_files: dict[str, _Scratch] = {}
+
+
+def _file(suffix: str, data: bytes) -> str:
+    if suffix not in _files:
+        _files[suffix] = _Scratch(suffix)
+    return _files[suffix].holding(data)
+
+
+def scenario(data: bytes) -> None:
+    path = _file(".toml", data)
+    try:
+        sc = load_scenario(path)
+    except UserError as exc:
+        _one_line(exc, f"{path}: ")
+        return
+    assert 1 <= sc.agents <= 2000 and sc.steps >= 0 and sc.dt >= 0 and sc.frame >= -1 and sc.frame_steps >= 0
+    assert all(f.at_step >= 0 and f.seconds > 0 and 0 <= f.fraction < 1 for f in sc.failures)
+    assert all(math.isfinite(v) and v >= 0 for v in dataclasses.astuple(sc.passing))
+
+
+def users(data: bytes) -> None:
+    path = _file(".users", data)
+    try:
+        creds = read_users_file(path)
+    except AuthFileError as exc:
+        _one_line(exc, f"{path}")
+        return
+    assert creds and len({c.user for c in creds}) == len(creds)
+    for c in creds:
+        assert c.user in ROLES or agent_id_of(c.user) is not None, c.user
+        assert _PASSWORD_RE.match(c.password) and ":" not in c.password
+
+
+def mcap(data: bytes) -> None:
+    path = _file(".mcap", data)
+    try:
+        run = load_run(path, images=False)
+    except UserError as exc:
+        _one_line(exc, f"{path}: ")
+        return
+    c = completeness(run)
+    assert c.steps <= len(run.frames) and c.missing_states >= 0
+    assert list(run.steps) == sorted(run.steps)
+
+
+TARGETS = {f.__name__: f for f in (state, ctl, command, event, report, spec, scenario, users, mcap)}
+
+
+def cleanup() -> None:
+    for s in _files.values():
+        try:
+            os.unlink(s.path)
+        except OSError:
+            pass
