@@ -22,6 +22,7 @@ from agent.protocol.wire import peek_id_step
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
 CLOCK_PERIOD = 0.02
 CLOCK_REPEAT = 1.0
+CLOCK_LEAD = 3  # steps an agent may run past the clock (agent/native/src/agent.rs CLOCK_LEAD)
 GONE_GRACE = 0.25  # s a lost agent's report may come after its token's deletion (Pacer._clock)
 AHEAD = 1000  # steps: a state further ahead of the newest step seen is not believed (untrusted input)
 
@@ -39,6 +40,9 @@ class Pacer:
         self.agent_steps: dict[int, tuple[int, float]] = {}  # id -> (its newest step, when it was seen)
         self.newest: dict[int, bytes] = {}  # id -> its newest state record, undecoded (watchers decode it)
         self.end_step: int | None = None
+        self.started_at: float | None = None  # when the agents were told to start (mark_start)
+        self.dt: float | None = None  # simulated seconds per step (mark_start)
+        self.realtime = False  # pace_realtime: simulated time held to the wall clock
         self._states = None
         self._stop = threading.Event()
 
@@ -60,6 +64,27 @@ class Pacer:
                 self._states.undeclare()
             except Exception:
                 pass
+
+    def mark_start(self, dt: float) -> None:
+        """The agents were just told to start; a step lasts `dt` simulated seconds (realtime_factor)."""
+        self.started_at, self.dt = time.monotonic(), float(dt)
+
+    def pace_realtime(self) -> None:
+        """From now on (after mark_start) simulated time never runs ahead of the wall clock: the clock is
+        held CLOCK_LEAD + 1 steps below the step the wall clock has reached, so no agent passes it."""
+        self.realtime = True
+        self.session.put(*ctl_message(self.run, Clock(0)), congestion_control=zenoh.CongestionControl.BLOCK)
+
+    def realtime_factor(self) -> float | None:
+        """Simulated seconds / wall seconds of the swarm's run: the newest step over the time from the
+        start to its first sighting (1.0: as fast as the wall clock; None before mark_start or a step)."""
+        if self.started_at is None or self.max_step < 1:
+            return None
+        wall = self.step_times[self.max_step] - self.started_at
+        return self.max_step * self.dt / wall if wall > 0 else None
+
+    def _wall_step(self, now: float) -> int:
+        return max(0, int((now - self.started_at) / self.dt) - CLOCK_LEAD - 1)
 
     def _on_state(self, sample) -> None:
         data = sample.payload.to_bytes()
@@ -116,6 +141,8 @@ class Pacer:
             steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
             if steps:
                 last = min(steps)
+            if self.realtime:
+                last = self._wall_step(now) if last is None else min(last, self._wall_step(now))
             # Said again every CLOCK_REPEAT s, and with congestion control Block: a clock tick dropped by a
             # congested link held 555 of 1000 agents at their lead for good (nobody moved, so no new tick).
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):

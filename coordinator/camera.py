@@ -1,4 +1,8 @@
-"""A live source for the coordinator: a person watched by a camera, a network stream or a video file.
+"""A live source for the coordinator: a person or a hand watched by a camera, a network stream or a video file.
+
+`subject` "hand": each observed frame is read on its own (perception/hand.py: a hand in front of a plain
+background, its silhouette and the classifier's class; a hand moves, so no static-body assumption).
+"person": as below. "auto": the first AUTO_FRAMES observed frames decide (a hand in most of them: hand).
 
 Frames are taken as they come (perception/stream.py, at most `--fps` per second). Each observed frame is
 read with the last `window` observed frames as a static-camera clip (coordinator/control/observe.py: the person's
@@ -9,12 +13,19 @@ the last commanded one, or the tracked box moving or resizing, no sooner than `m
 command) -- not every frame.
 
 The first command's observation is written to `first.npz` (and every command's to `latest.npz`) in the
-folder the launcher gives (`--observations DIR`), so it can place the swarm and score the formation.
+folder the launcher gives (`--observations DIR`), so it can place the swarm and score the formation; what
+happened goes to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
+chosen, each command (seq, gesture, why), each time the subject was not found (what, said once until it
+was found again or the reason changed) and the end of a video file. A video file ends normally at its
+last frame; a device or URL that ends or stalls is a StreamError.
 """
 
 from __future__ import annotations
 
+import itertools
+import json
 import os
+import re
 import threading
 import time
 from collections import deque
@@ -28,11 +39,14 @@ from perception.tracking import BoxKalman, box_to_centre
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import build_command, transform_for
 from perception.segmentation import SegmentationError
-from perception.stream import FrameStream
+from perception.stream import FrameStream, StreamEnded, StreamError
 
 # observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
 CLIP = Path("camera.mp4")
 PARTS = ("torso", "left_arm", "right_arm")
+SUBJECTS = ("hand", "person", "auto")
+AUTO_FRAMES = 3  # observed frames that decide --subject auto
+HOLD_SECONDS = 300.0  # s a video file waits for its swarm to start (a 1000-agent start on 2 cores: minutes)
 
 
 @dataclass(frozen=True)
@@ -56,8 +70,11 @@ class ChangeRule:
 class LiveObserver:
     """The newest frame read with the ones before it; None while there is nothing to see yet."""
 
+    subject = "person"
+
     def __init__(self, window: int):
         self.frames: deque = deque(maxlen=max(3, window))
+        self.missing: str | None = None  # why the last frame showed no person
 
     def observe(self, frame: np.ndarray) -> Observation | None:
         if self.frames and self.frames[-1].shape != frame.shape:
@@ -67,9 +84,60 @@ class LiveObserver:
             return None
         try:
             obs = observe(CLIP, list(self.frames))[-1]
-        except SegmentationError:  # nothing moves yet, or no person: the swarm keeps its command
+        except SegmentationError as exc:  # nothing moves yet, or no person: the swarm keeps its command
+            self.missing = str(exc)
             return None
+        self.missing = None if obs.mask.any() else "no person found: an empty silhouette"
         return obs if obs.mask.any() else None
+
+
+class HandObserver:
+    """Each frame on its own (perception/hand.py); None, with `missing` saying why, when it shows no hand."""
+
+    subject = "hand"
+
+    def __init__(self, classifier=None):
+        from perception.eigen import default_model
+
+        self.classifier = classifier or default_model()
+        self.missing: str | None = None
+
+    def observe(self, frame: np.ndarray) -> Observation | None:
+        from perception.hand import NoHandError, find_hand
+
+        try:
+            hand = find_hand(frame, self.classifier)
+        except NoHandError as exc:
+            self.missing = str(exc)
+            return None
+        self.missing = None
+        return Observation("hand", hand.mask, f"hand_{hand.label}", frame, {})
+
+
+def choose_subject(frames: list[np.ndarray], hands: HandObserver) -> str:
+    """'hand' if most of `frames` show a hand in front of a plain background, else 'person'."""
+    seen = sum(hands.observe(f) is not None for f in frames)
+    return "hand" if 2 * seen > len(frames) else "person"
+
+
+class EventLog:
+    """events.jsonl in the observations folder (or nowhere); 'missing' said once per reason."""
+
+    def __init__(self, folder: Path | None):
+        self.path = None if folder is None else folder / "events.jsonl"
+        self._said: str | None = None
+
+    def write(self, event: str, **fields) -> None:
+        if self.path is None:
+            return
+        with open(self.path, "a") as f:
+            f.write(json.dumps({"t": time.monotonic(), "event": event, **fields}) + "\n")
+
+    def missing(self, what: str | None) -> None:
+        kind = None if what is None else re.sub(r"[0-9.]+", "#", what)  # the reason, not its figures
+        if kind is not None and kind != self._said:
+            self.write("missing", what=what)
+        self._said = kind
 
 
 def _box(mask: np.ndarray) -> np.ndarray:
@@ -136,9 +204,30 @@ def load_observation(path: Path) -> Observation:
 
 
 def run_camera(source: str, stream_params, n_agents: int, controller: str, secret: bytes, pub, stop: threading.Event,
-               period: float, observations: Path | None, rule: ChangeRule = ChangeRule()) -> None:
-    """Observe `source` until `stop`, publishing signed commands on `pub` (republished every `period` s
-    by a side thread, so late joiners get one while a frame is being read). Raises StreamError."""
+               period: float, observations: Path | None, rule: ChangeRule = ChangeRule(), subject: str = "person",
+               started: threading.Event | None = None) -> None:
+    """Observe `source` until `stop` or the end of a video file, publishing signed commands on `pub`
+    (republished every `period` s by a side thread, so late joiners get one while a frame is being read).
+    A video file is held after its first command until `started` (the swarm runs), so that what it shows
+    is seen by the swarm as it was recorded, however long the swarm took to start (at most
+    HOLD_SECONDS). Raises StreamError (a file that ends before anything was commanded, too)."""
+    if subject not in SUBJECTS:
+        raise ValueError(f"subject must be one of {', '.join(SUBJECTS)}, got {subject!r}")
+    log = EventLog(observations)
+    try:
+        _observe_stream(source, stream_params, n_agents, controller, secret, pub, stop, period, observations,
+                        rule, subject, log, started)
+    except StreamEnded as exc:
+        if not getattr(exc, "is_file", False):
+            raise
+        log.write("end", frames=exc.frames)
+        if not exc.commanded:
+            raise StreamError(f"camera {source}: the video ended after {exc.frames} frames without a "
+                              f"{exc.subject or 'hand or person'} seen") from None
+
+
+def _observe_stream(source, stream_params, n_agents, controller, secret, pub, stop, period, observations, rule,
+                    subject, log, started) -> None:
     current: list[bytes] = []
 
     def republish() -> None:
@@ -147,21 +236,48 @@ def run_camera(source: str, stream_params, n_agents: int, controller: str, secre
                 pub.put(current[-1])
 
     threading.Thread(target=republish, name="republish", daemon=True).start()
-    observer, switch = LiveObserver(rule.window), CommandSwitch(rule)
+    switch = CommandSwitch(rule)
     transform = None
     seq = 0
+    observer = None
     with FrameStream(source, stream_params) as stream:
-        while not stop.is_set():
-            obs = observer.observe(stream.next())
+        def frames():
+            try:
+                while not stop.is_set():
+                    yield stream.next()
+            except StreamEnded as exc:
+                exc.is_file, exc.frames, exc.commanded = stream.is_file, stream.frames_read, seq > 0
+                exc.subject = observer.subject if observer is not None else None
+                raise
+
+        source_frames = frames()
+        first: list[np.ndarray] = []
+        if subject == "auto":
+            hands = HandObserver()
+            for f in source_frames:
+                first.append(f)
+                if len(first) == AUTO_FRAMES:
+                    break
+            subject = choose_subject(first, hands)
+            observer = hands if subject == "hand" else LiveObserver(rule.window)
+            log.write("subject", subject=subject, how="auto", frames=len(first))
+        else:
+            observer = HandObserver() if subject == "hand" else LiveObserver(rule.window)
+            log.write("subject", subject=subject, how="given")
+        for frame in itertools.chain(first, source_frames):
+            obs = observer.observe(frame)
+            log.missing(observer.missing)
             if obs is None:
                 continue
             now = time.monotonic()
-            if switch.update(obs, now) is None:
+            why = switch.update(obs, now)
+            if why is None:
                 continue
             t = transform or transform_for(obs.mask, n_agents, controller)
             try:
                 cmd = build_command(obs, t, n_agents, controller, seq=seq + 1)
-            except (ShapeError, ValueError):  # a silhouette the swarm cannot take (too small, too thin): wait
+            except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take (too small, too thin): wait
+                log.missing(f"no shape the swarm can take: {exc}")
                 continue
             transform, seq = t, seq + 1
             switch.commit(obs, now)
@@ -169,7 +285,12 @@ def run_camera(source: str, stream_params, n_agents: int, controller: str, secre
             current.append(payload)
             del current[:-1]
             pub.put(payload)
+            log.write("command", seq=seq, gesture=obs.label, why=why)
             if observations is not None:
                 if seq == 1:
                     save_observation(observations / "first.npz", obs)
                 save_observation(observations / "latest.npz", obs)
+            if seq == 1 and started is not None and stream.is_file:
+                stream.hold()
+                started.wait(HOLD_SECONDS)
+                stream.play()

@@ -7,8 +7,8 @@ between frames (thesis ch. 5, gesture sequences).
 
 `python -m coordinator --connect tcp/HOST:PORT --run NAME --input IMAGE|FOLDER|VIDEO --agents N`
 with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET. With `--camera DEVICE|URL|FILE`
-instead of `--input` it observes frames as they come (coordinator/camera.py) until the stream ends or
-stalls (then a one-line error, exit 1).
+instead of `--input` it observes frames as they come (coordinator/camera.py): a video file until its last
+frame (exit 0), a device or URL until it ends or stalls (then a one-line error, exit 1).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import sys
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -73,11 +74,13 @@ class SwarmClock:
     def __init__(self, run: str):
         self.run = run
         self.step = 0
+        self.started = threading.Event()  # a clock was heard: the swarm runs
 
     def on_sample(self, sample) -> None:
         msg = decode_ctl(keys.ctl_what(self.run, str(sample.key_expr)), sample.payload.to_bytes())
         if isinstance(msg, Clock):
             self.step = max(self.step, msg.step)
+            self.started.set()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -90,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
     ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
     ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
+    ap.add_argument("--subject", default="person", choices=["hand", "person", "auto"],
+                    help="camera: what it watches (auto: decided from the first frames)")
     ap.add_argument("--observations", help="camera: folder for first.npz / latest.npz (the launcher reads them)")
     ap.add_argument("--agents", type=int, required=True)
     ap.add_argument("--controller", default=DEFAULT_CONTROLLER, choices=CONTROLLERS)
@@ -186,8 +191,11 @@ def _camera(args, secret: bytes) -> int:
         return 2
     observations = Path(args.observations) if args.observations else None
     try:
-        with _command_channel(args) as (_session, pub, stop):
-            run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations)
+        with _command_channel(args) as (session, pub, stop):
+            clock = SwarmClock(args.run)  # a video file is held until the swarm steps (its first clock)
+            session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
+            run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations,
+                       subject=args.subject, started=clock.started)
     except StreamError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 1

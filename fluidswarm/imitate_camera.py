@@ -1,15 +1,18 @@
-"""`fluidswarm imitate --camera DEVICE|URL|FILE`: the swarm follows a person watched live.
+"""`fluidswarm imitate --camera DEVICE|URL|FILE`: the swarm follows a person or a hand watched live.
 
-The coordinator process reads the camera (coordinator/camera.py) and says where the person is first seen
+The coordinator process reads the camera (coordinator/camera.py) and says where the subject is first seen
 (`first.npz`); the swarm is placed and the recorder started from that observation, then the agents follow
-each new command as the gesture changes. The run lasts `steps` steps. If the camera stream ends or stalls
-first, the coordinator exits with a one-line error: the swarm is told to finish a few steps later (all
-agents at the same step, so the MCAP stays complete), the recording is finished, and that line is raised
-as a UserError.
+each new command as the gesture changes, paced to the wall clock (simulated time = wall time, never
+faster; the record's `realtime_factor` says what was reached). The run lasts `steps` steps, or until a
+video file's last frame: then the coordinator exits 0 and the swarm finishes a few steps later, all agents
+at the same step (the MCAP complete). If a device or URL ends or stalls, the coordinator exits with a
+one-line error: the swarm finishes the same way and that line is raised as a UserError. The record lists
+the subject, each command's gesture and when it came (`gestures`), and what was not found (`notes`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import threading
@@ -42,19 +45,39 @@ def _coordinator_error(coord: subprocess.Popen, source: str) -> str:
     return lines[-1].split("error: ", 1)[1]
 
 
-def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float) -> Path:
+def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float, subject: str) -> Path:
     deadline = time.monotonic() + timeout
     while not path.exists():
         if coord.poll() is not None:
             raise UserError(_coordinator_error(coord, source))
         if time.monotonic() > deadline:
-            raise UserError(f"camera {source}: no person seen in {timeout:.0f} s")
+            what = "hand or person" if subject == "auto" else subject
+            last = [e["what"] for e in read_events(path.parent) if e.get("event") == "missing"]
+            raise UserError(f"camera {source}: no {what} seen in {timeout:.0f} s" + (f" ({last[-1]})" if last else ""))
         time.sleep(0.05)
     return path
 
 
+def read_events(folder: Path) -> list[dict]:
+    """The coordinator's events.jsonl (coordinator/camera.py EventLog); a torn last line is left out."""
+    out = []
+    try:
+        lines = (folder / "events.jsonl").read_text().splitlines()
+    except OSError:
+        return out
+    for line in lines:
+        try:
+            e = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(e, dict) and isinstance(e.get("t"), (int, float)):
+            out.append(e)
+    return out
+
+
 class CoordinatorWatch:
-    """Ends the swarm together (ctl/end a little ahead of the fastest agent) if the coordinator exits."""
+    """Ends the swarm together (ctl/end a little ahead of the fastest agent) if the coordinator exits: with
+    an error (`failed`), or at the end of a video file."""
 
     def __init__(self, launcher, coord: subprocess.Popen):
         self.launcher, self.coord = launcher, coord
@@ -76,10 +99,9 @@ class CoordinatorWatch:
             if self.coord.poll() is None:
                 continue
             self.failed = self.coord.returncode != 0
-            if self.failed:
-                step = max(self.launcher.max_step, 0)
-                rate = step / max(time.monotonic() - self._t0, 1e-3)
-                self.launcher.end_at(step + 5 + math.ceil(rate * END_LEAD_SECONDS))
+            step = max(self.launcher.max_step, 0)
+            rate = step / max(time.monotonic() - self._t0, 1e-3)
+            self.launcher.end_at(step + 5 + math.ceil(rate * END_LEAD_SECONDS))
             return
 
 
@@ -95,6 +117,7 @@ class CameraImitation:
     controller: str = DEFAULT_CONTROLLER
     fps: float = 5.0
     stall_seconds: float = 5.0
+    subject: str = "person"
     kind: str = "camera"
 
     def drive(self, run: Run) -> None:
@@ -102,24 +125,44 @@ class CameraImitation:
         tmp = run.scratch
         coord = start_coordinator(run, ["--camera", str(self.source), "--fps", repr(float(self.fps)),
                                         "--stall-seconds", repr(float(self.stall_seconds)), "--agents", str(self.agents),
-                                        "--controller", self.controller, "--observations", str(tmp)])
+                                        "--controller", self.controller, "--observations", str(tmp),
+                                        "--subject", self.subject])
         run.launcher.helpers.forget(coord)  # its end is the stream's end, handled here: not a lost helper
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)
         first = load_observation(_wait_first(coord, tmp / "first.npz", self.source,
-                                             FIRST_SECONDS + self.stall_seconds))
+                                             FIRST_SECONDS + self.stall_seconds, self.subject))
         self.im = im = prepare_observation(first, self.agents, controller=self.controller)
         target, image = write_target(tmp, im, first.frame)
         meta = {"scenario": o.name, "camera": str(self.source), "fps": self.fps, "gesture": im.command.gesture,
                 "controller": self.controller, "agents": self.agents, "steps": self.steps, "sync": "lockstep",
                 "params": im.setup.params.as_dict(), "agent_ids": list(range(self.agents)),
-                "transform": im.transform.as_dict()}
+                "transform": im.transform.as_dict(), "subject": self.subject, "realtime": True}
         run.record_to(meta, im.setup.params.dt, target=target, image=image)
         run.swarm(SwarmPlan(im.setup, self.steps))
         self.latest = load_observation(tmp / "latest.npz")
+        self.events = read_events(tmp)  # before the run's scratch folder goes
+        self.dt = im.setup.params.dt
+
+    def account(self, run: Run) -> None:
+        """The subject, each command's gesture and simulated time, and what was not found, into the record."""
+        r, t0 = run.record, run.launcher.pacer.started_at
+        for e in self.events:
+            # Simulated time of an event: the wall time since the start, at the reached real-time factor.
+            t = max(0.0, e["t"] - t0) * min(1.0, r.realtime_factor or 1.0) if t0 is not None else 0.0
+            if e.get("event") == "subject":
+                r.subject = f"{e.get('subject')} ({e.get('how')})"
+            elif e.get("event") == "command":
+                r.gestures.append({"seq": e.get("seq"), "gesture": str(e.get("gesture")), "t": round(t, 2),
+                                   "why": str(e.get("why"))})
+            elif e.get("event") == "missing":
+                r.notes.append(f"t={t:.2f} s: {e.get('what')}")
+            elif e.get("event") == "end":
+                r.notes.append(f"t={t:.2f} s: camera {self.source}: the video ended after {e.get('frames')} frames")
 
     def score(self, run: Run) -> None:
+        self.account(run)
         coord = run.coordinator
         if self.watch.failed or coord.returncode not in (0, -15, None):
             raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
@@ -132,9 +175,10 @@ class CameraImitation:
 
 def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
                    controller: str = DEFAULT_CONTROLLER, fps: float = 5.0, stall_seconds: float = 5.0,
-                   live: str = "", name: str = "camera") -> RunRecord:
-    """`fluidswarm imitate --camera SOURCE`."""
-    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds)
-    with Run(kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True)) as run:
+                   live: str = "", name: str = "camera", subject: str = "person") -> RunRecord:
+    """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
+    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject)
+    with Run(kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True,
+                              realtime=True)) as run:
         kind.drive(run)
     return run.record

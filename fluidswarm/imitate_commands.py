@@ -20,7 +20,11 @@ def register(sub) -> None:
     p = sub.add_parser("imitate", help="perception -> coordinator -> N agent processes -> formation, MCAP, fidelity")
     p.add_argument("input", nargs="?", help="image, folder of frames, or video (or --camera)")
     p.add_argument("--camera", metavar="DEVICE|URL|FILE",
-                   help="follow a person watched live: frames read as they come, a new command when the gesture changes")
+                   help="follow a person or a hand watched live: frames read as they come, a new command when the "
+                        "gesture changes, the swarm paced to the wall clock")
+    p.add_argument("--subject", default="person", choices=["hand", "person", "auto"],
+                   help="--camera: a hand in front of a plain background, a person (static camera), or auto "
+                        "(decided from the first frames, said in the record)")
     p.add_argument("--fps", type=float, default=5.0, help="--camera: at most this many frames observed per second")
     p.add_argument("--stall-seconds", type=float, default=5.0, help="--camera: no new frame for this long is an error")
     p.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"],
@@ -63,7 +67,7 @@ def _imitate(args) -> int:
         from fluidswarm.imitate_camera import imitate_camera
 
         record = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
-                                fps=args.fps, stall_seconds=args.stall_seconds, live=live)
+                                fps=args.fps, stall_seconds=args.stall_seconds, live=live, subject=args.subject)
     else:
         from fluidswarm.imitate import imitate
 
@@ -88,5 +92,13 @@ def print_lines(r: RunRecord) -> None:
     print(f"formation_settled={'true' if r.formation_settled else 'false'}")
     print(f"agents_finished={r.finished}")
     print(f"steps_per_second={r.steps_per_second:.2f}")
+    if r.realtime_factor is not None:
+        print(f"realtime_factor={r.realtime_factor:.3f}")
+    if r.subject:
+        print(f"subject={r.subject}")
+    for g in r.gestures:
+        print(f"gesture seq={g['seq']} t={g['t']:.2f} {g['gesture']} ({g['why']})")
+    for note in r.notes:
+        print(f"note {note}")
     print(f"mcap={r.mcap}")
     print(f"png={r.pictures[0]}")

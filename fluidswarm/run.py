@@ -22,6 +22,7 @@ import json
 import math
 import shutil
 import subprocess
+import sys
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -39,6 +40,9 @@ from fluidswarm.recording.progress import Progress
 
 if TYPE_CHECKING:
     from coordinator.control.fidelity import Fidelity
+
+
+REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not keep up (said once)
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,7 @@ class RunOptions:
     run: str | None = None
     connect: str | None = None
     auth_file: str = ""
+    realtime: bool = False  # simulated time held to the wall clock (agent/pacing.py pace_realtime)
 
 
 @dataclass
@@ -127,6 +132,10 @@ class RunRecord:
     formation_wall_seconds: float | None = None
     formation_settled: bool | None = None
     figures: dict[str, float | int | str] = field(default_factory=dict)
+    realtime_factor: float | None = None  # simulated seconds / wall seconds of the swarm's run
+    subject: str = ""  # imitate --camera: "hand" | "person" (and how it was chosen)
+    gestures: list[dict] = field(default_factory=list)  # imitate --camera: each command {seq, gesture, t, why}
+    notes: list[str] = field(default_factory=list)  # what was not found, a swarm that fell behind real time
     passed: bool = True
     why: list[str] = field(default_factory=list)
     finals: dict[int, FinalReport] = field(default_factory=dict, repr=False)
@@ -214,6 +223,7 @@ class Run:
         if exc_type is None and self.result is not None:
             self.result.exit_codes.update(codes)
             self.record = self._summarise()
+            self._behind_real_time()
             self.kind.score(self)
 
     # what a kind uses while it drives
@@ -257,6 +267,9 @@ class Run:
             self._bar = Progress(plan.steps, "step", rate_unit="steps")
 
         def started(_launcher) -> None:
+            la.pacer.mark_start(plan.setup.params.dt)
+            if o.realtime:
+                la.pacer.pace_realtime()
             self.injector.start()
             for fn in self._on_start:
                 fn()
@@ -276,9 +289,11 @@ class Run:
     def _progress(self) -> None:
         if self._bar is None:
             return
-        la = self.launcher
+        la, o = self.launcher, self.options
         injected = len(self.injector.log.injected) if self.injector else 0
-        self._bar.show(max(la.max_step, 0), f"alive {len(la.swarm.alive)}", f"failures {injected}")
+        factor = la.pacer.realtime_factor()
+        extra = [f"realtime_factor {factor:.2f}"] if factor is not None and o.realtime else []
+        self._bar.show(max(la.max_step, 0), f"alive {len(la.swarm.alive)}", f"failures {injected}", *extra)
 
     def _summarise(self) -> RunRecord:
         res, la, o, plan = self.result, self.launcher, self.options, self.plan
@@ -293,7 +308,16 @@ class Run:
             longest_stall_seconds=la.pacer.longest_stall(),
             failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
             failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
-            mcap=str(self.mcap) if self.mcap else None, finals=finals)
+            mcap=str(self.mcap) if self.mcap else None, finals=finals, realtime_factor=la.pacer.realtime_factor())
+
+    def _behind_real_time(self) -> None:
+        """A real-time swarm that could not keep up says so, once, with the factor it reached."""
+        f = self.record.realtime_factor
+        if self.options.realtime and f is not None and f < REALTIME_KEPT:
+            note = (f"real time not kept: realtime_factor={f:.2f} ({self.record.agents} agents stepped "
+                    f"{f:.0%} as fast as the wall clock)")
+            self.record.notes.append(note)
+            print(f"fluidswarm: {note}", file=sys.stderr)
 
 
 def busy_with_failures(run: Run) -> Callable[[], bool]:

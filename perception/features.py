@@ -6,7 +6,11 @@ Two preprocessing chains:
   (the thesis' "image normalisation to reduce the error because of the lighting condition").
 - `hand_hog`: segment the hand (`perception.segmentation.hand_mask`), crop a square around its bounding
   box so position and scale no longer matter, then histograms of oriented gradients (HOG, Dalal & Triggs
-  2005, written here in numpy) of both the grey crop and the silhouette crop.
+  2005, OpenCV's `HOGDescriptor`) of both the grey crop and the silhouette crop, at two cell sizes (8 and
+  16 px: the fingers' edges and the hand's coarse outline), square-rooted (Hellinger / power
+  normalisation: large bins no longer dominate the distances). The silhouette's half weighs half.
+  5-fold cross-validation on the shared set, RBF SVM on top (docs/perception.md): one cell size 0.972,
+  both 0.976, square-rooted 0.976 (best min fold).
 """
 
 from __future__ import annotations
@@ -19,9 +23,10 @@ from perception.segmentation import SegmentationError, hand_mask
 WORK_SIZE = 100  # every photograph is first brought to 100 x 100 (the shared set's size)
 PIXEL_SIZE = 50  # the baseline's grey image side
 CROP_SIZE = 64  # the best pipeline's crop side
-CELL = 8  # HOG cell side in pixels
 BINS = 9  # HOG unsigned orientation bins over 0..180 degrees
 CROP_MARGIN = 0.08  # crop side = (1 + 2 * margin) * the longer side of the hand's bounding box
+HOG_CELLS = (8, 16)  # hand_hog's cell sides [px] on the CROP_SIZE crop
+SILHOUETTE_WEIGHT = 0.5  # of the silhouette crop's HOG beside the grey crop's (chosen by cross-validation)
 
 
 def to_work_size(image_bgr: np.ndarray) -> np.ndarray:
@@ -41,38 +46,6 @@ def pixels(images: list[np.ndarray], size: int = PIXEL_SIZE) -> np.ndarray:
         v -= v.mean()
         out[i] = v / max(float(np.linalg.norm(v)), 1e-6)
     return out
-
-
-def hog(gray: np.ndarray, cell: int = CELL, bins: int = BINS, block: int = 2) -> np.ndarray:
-    """HOG of one image or a stack (N, H, W): unsigned gradients, linear bin interpolation,
-    2x2-cell blocks with L2-Hys normalisation (clip 0.2). Returns (D,) or (N, D)."""
-    g = np.asarray(gray, np.float32)
-    single = g.ndim == 2
-    if single:
-        g = g[None]
-    n, h, w = g.shape
-    gx = np.zeros_like(g)
-    gy = np.zeros_like(g)
-    gx[:, :, 1:-1] = g[:, :, 2:] - g[:, :, :-2]
-    gy[:, 1:-1, :] = g[:, 2:, :] - g[:, :-2, :]
-    ch, cw = h // cell, w // cell
-    mag = np.hypot(gx, gy)[:, : ch * cell, : cw * cell]
-    pos = (np.degrees(np.arctan2(gy, gx)) % 180.0)[:, : ch * cell, : cw * cell] / (180.0 / bins)
-    lo = np.floor(pos).astype(np.int64)
-    frac = (pos - lo).astype(np.float32)
-    lo %= bins
-    hi = (lo + 1) % bins
-    hist = np.zeros((n, ch, cw, bins), np.float32)
-    for b in range(bins):
-        m = mag * ((lo == b) * (1.0 - frac) + (hi == b) * frac)
-        hist[..., b] = m.reshape(n, ch, cell, cw, cell).sum(axis=(2, 4))
-    nb_r, nb_c = ch - block + 1, cw - block + 1
-    blocks = np.concatenate([hist[:, i:i + nb_r, j:j + nb_c] for i in range(block) for j in range(block)], axis=-1)
-    blocks /= np.sqrt((blocks ** 2).sum(-1, keepdims=True) + 1e-6)
-    np.minimum(blocks, 0.2, out=blocks)
-    blocks /= np.sqrt((blocks ** 2).sum(-1, keepdims=True) + 1e-6)
-    out = blocks.reshape(n, -1)
-    return out[0] if single else out
 
 
 def crop_square(image: np.ndarray, mask: np.ndarray, size: int = CROP_SIZE, margin: float = CROP_MARGIN) -> np.ndarray:
@@ -96,12 +69,30 @@ def safe_mask(image_bgr: np.ndarray) -> np.ndarray:
         return np.ones(image_bgr.shape[:2], bool)
 
 
-def hand_hog(images: list[np.ndarray]) -> np.ndarray:
-    """Best pipeline's features: [HOG(grey crop), HOG(silhouette crop)] per image, (N, D) float32."""
-    greys, sils = [], []
-    for im in images:
-        img = to_work_size(im)
+def _descriptor(cell: int, size: int = CROP_SIZE) -> cv2.HOGDescriptor:
+    # 2 x 2-cell blocks moved by one cell, BINS unsigned bins, L2-Hys: Dalal & Triggs' choices
+    return cv2.HOGDescriptor((size, size), (2 * cell, 2 * cell), (cell, cell), (cell, cell), BINS)
+
+
+def hand_crops(image_bgr: np.ndarray, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(grey crop, silhouette crop) of the hand, CROP_SIZE square, uint8; `mask` default: hand_mask's."""
+    img = to_work_size(image_bgr)
+    if mask is None:
         mask = safe_mask(img)
-        greys.append(crop_square(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), mask))
-        sils.append(crop_square(mask.astype(np.uint8) * 255, mask))
-    return np.hstack([hog(np.stack(greys)), hog(np.stack(sils))]).astype(np.float32)
+    elif mask.shape != img.shape[:2]:
+        mask = cv2.resize(mask.astype(np.uint8), img.shape[1::-1], interpolation=cv2.INTER_NEAREST).astype(bool)
+    return crop_square(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), mask), crop_square(mask.astype(np.uint8) * 255, mask)
+
+
+def hand_hog(images: list[np.ndarray], masks: list[np.ndarray | None] | None = None) -> np.ndarray:
+    """Best pipeline's features per image, (N, D) float32: sqrt of [HOG(grey crop), w * HOG(silhouette
+    crop)] at each of HOG_CELLS. `masks`: the hands' silhouettes if already known (default hand_mask's)."""
+    descriptors = [_descriptor(c) for c in HOG_CELLS]
+    out = []
+    for k, im in enumerate(images):
+        grey, sil = hand_crops(im, None if masks is None else masks[k])
+        parts = []
+        for d in descriptors:
+            parts += [d.compute(grey).ravel(), SILHOUETTE_WEIGHT * d.compute(sil).ravel()]
+        out.append(np.sqrt(np.concatenate(parts)))
+    return np.array(out, np.float32)

@@ -27,6 +27,10 @@ class StreamError(InputError):
     """The camera / stream cannot be used any more; the message names it and says why."""
 
 
+class StreamEnded(StreamError):
+    """The source ended. A video file ends so at its last frame (`FrameStream.is_file`): a normal end."""
+
+
 @dataclass(frozen=True)
 class StreamParams:
     """fps [1/s]: at most this many frames observed per second; stall_seconds [s]: no new frame for this
@@ -85,6 +89,8 @@ class FrameStream:
         self._ended = False
         self._last_arrival = time.monotonic()
         self._closing = threading.Event()
+        self._playing = threading.Event()  # a file's playback runs while set (hold / play)
+        self._playing.set()
         self._next_due = 0.0
         self._thread = threading.Thread(target=self._read, name=f"FrameStream[{self.source}]", daemon=True)
         self._thread.start()
@@ -96,6 +102,13 @@ class FrameStream:
             period = 1.0 / (fps if 0 < fps <= 1000 else FILE_FPS_DEFAULT)
         t0 = time.monotonic()
         while not self._closing.is_set():
+            if not self._playing.is_set():  # held: the file's clock stops with it
+                held = time.monotonic()
+                while not self._playing.wait(0.1) and not self._closing.is_set():
+                    pass
+                t0 += time.monotonic() - held
+                with self._lock:
+                    self._last_arrival = time.monotonic()
             ok, frame = self._cap.read()
             now = time.monotonic()
             with self._lock:
@@ -107,6 +120,21 @@ class FrameStream:
                 self._lock.notify_all()
             if period:
                 self._closing.wait(max(0.0, t0 + self._count * period - time.monotonic()))
+
+    def hold(self) -> None:
+        """A video file stops playing (e.g. until the swarm it drives has started); no-op for live sources."""
+        if self._is_file:
+            self._playing.clear()
+
+    def play(self) -> None:
+        """A held video file plays on from where it stopped."""
+        with self._lock:
+            self._last_arrival = time.monotonic()  # held is not stalled
+        self._playing.set()
+
+    @property
+    def is_file(self) -> bool:
+        return self._is_file
 
     @property
     def frames_read(self) -> int:
@@ -121,7 +149,7 @@ class FrameStream:
         with self._lock:
             while self._count == self._taken:
                 if self._ended:
-                    raise StreamError(f"camera {self.source}: the stream ended after {self._count} frames")
+                    raise StreamEnded(f"camera {self.source}: the stream ended after {self._count} frames")
                 silent = time.monotonic() - self._last_arrival
                 if silent >= self.params.stall_seconds:
                     raise StreamError(f"camera {self.source}: the stream stalled (no frame for {silent:.1f} s)")
@@ -133,6 +161,7 @@ class FrameStream:
 
     def close(self) -> None:
         self._closing.set()
+        self._playing.set()
         # A read blocked on a stalled network stream cannot be interrupted; the thread is a daemon.
         self._thread.join(1.0)
         if not self._thread.is_alive():

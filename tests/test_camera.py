@@ -42,14 +42,16 @@ def aspect(positions: np.ndarray) -> float:
 
 @pytest.mark.swarm
 def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follows(tmp_path):
-    clip = write_clip(tmp_path / "wave2.avi", fps=8.0)  # 7.4 s of stream
+    # 4 fps: 14.8 s of stream. The swarm is paced to the wall clock, so a sideways phase (6 frames) must last
+    # long enough in real time for it to follow (at 8 fps, 0.75 s: the formation no longer halved its gap).
+    clip = write_clip(tmp_path / "wave2.avi", fps=4.0)
     res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", str(clip), "--fps", "4", "--agents", "16",
                                        "--steps", "100000", "--out", str(tmp_path / "out")],
                          capture_output=True, text=True, timeout=120)
-    # The clip ends before the run's cap: one line naming the camera and the problem, exit 1, MCAP complete.
-    assert res.returncode == 1, res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and f"camera {clip}: the stream ended after 59 frames" in lines[0], res.stderr
+    # The clip ends before the run's cap: a normal end (exit 0, the record printed, MCAP complete).
+    assert res.returncode == 0, res.stderr
+    assert f"camera {clip}: the video ended after 59 frames" in res.stdout, res.stdout
+    assert "realtime_factor=" in res.stdout
     mcap = tmp_path / "out" / "camera.mcap"
     complete, steps, missing = check(mcap)
     assert complete and missing == 0 and steps > 100

@@ -50,18 +50,18 @@ def test_best_pipeline_cross_validates_above_the_targets_and_beats_the_baseline(
     base_five = cross_validate("baseline", x_base, labels[five], [f for f, k in zip(files, five) if k])
     print(f"5-fold CV: best all {best_all.mean():.3f} (min fold {best_all.min():.3f}); best 0,1,2,4,5 "
           f"{best_five.mean():.3f} (min {best_five.min():.3f}); baseline 0,1,2,4,5 {base_five.mean():.3f}")
-    assert best_all.mean() >= 0.93 and best_all.min() >= 0.90
-    assert best_five.mean() >= 0.96 and best_five.min() >= 0.94
+    assert best_all.mean() >= 0.97 and best_all.min() >= 0.96
+    assert best_five.mean() >= 0.98 and best_five.min() >= 0.97
     assert best_five.mean() > base_five.mean() + 0.1
 
 
-def test_training_on_the_whole_set_takes_under_5_cpu_seconds(hands):
+def test_training_on_the_whole_set_takes_under_10_cpu_seconds(hands):
     images, labels, _names, _files = hands
     t, c = time.perf_counter(), time.process_time()
     EigenClassifier("best").fit(images, labels)
     cpu, wall = time.process_time() - c, time.perf_counter() - t
     print(f"training on {len(images)} images: {cpu:.2f} s cpu, {wall:.2f} s wall")
-    assert cpu < 5.0
+    assert cpu < 10.0  # the issue: training <= 10 s (CPU: wall time on a shared machine is not ours)
 
 
 def test_model_round_trips_through_npz_without_pickles(hands, tmp_path):
