@@ -11,14 +11,14 @@ AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
 ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
 
-.PHONY: demo test install clean bench agent fuzz netfault-tools
+.PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
 $(STAMP): pyproject.toml setup.py
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,lint]'
 	touch $(STAMP)
 
 # One cargo build makes both programs: the agent and the router of access level acl (agent/router_process.py)
@@ -36,7 +36,7 @@ demo: install
 # Unit tests first (no processes, about a minute), then the swarm tests (tests/conftest.py draws the line);
 # both always run: the swarm tests run even when a unit test failed, and `make test` fails if either did.
 # The swarm tests list their slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
-test: install netfault-tools
+test: install netfault-tools lint
 	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
 	$(BIN)/python -m pytest -q -m "not swarm" tests; unit=$$?; \
 	$(BIN)/python -m pytest -q -m swarm --durations=10 tests; swarm=$$?; \
@@ -65,6 +65,30 @@ fuzz: $(FUZZ_STAMP)
 	$(CARGO) fuzz --version 2>/dev/null | grep -q '$(CARGO_FUZZ_VERSION)' \
 		|| $(CARGO) install cargo-fuzz --version $(CARGO_FUZZ_VERSION) --locked
 	CARGO=$(CARGO) $(BIN)/python fuzz/run.py --seconds $(FUZZ_SECONDS)
+
+# Linters, formatters (in check mode) and type checks, pinned in pyproject.toml (the lint extra) and
+# Cargo.lock; strictness and the rules left out, with why: pyproject.toml's [tool.ruff] and [tool.mypy].
+# clippy and rustfmt come with rustup's default profile; a minimal toolchain gets them added first.
+# Every check runs even when one failed, so one run names all there is to fix; `make lint` fails if any did.
+RUSTUP ?= $(shell command -v rustup 2>/dev/null || echo $(HOME)/.cargo/bin/rustup)
+CLIPPY_FMT := $(CARGO) clippy --version >/dev/null 2>&1 && $(CARGO) fmt --version >/dev/null 2>&1 \
+	|| $(RUSTUP) component add clippy rustfmt
+lint: $(STAMP)
+	@$(CLIPPY_FMT)
+	fail=0; \
+	$(BIN)/ruff check . || fail=1; \
+	$(BIN)/ruff format --check . || fail=1; \
+	$(BIN)/mypy || fail=1; \
+	$(CARGO) fmt --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
+	$(CARGO) clippy --release --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml -- -D warnings || fail=1; \
+	test $$fail -eq 0
+
+# The mechanical fixers: ruff's safe fixes (never --unsafe-fixes), then both formatters.
+fmt: $(STAMP)
+	@$(CLIPPY_FMT)
+	$(BIN)/ruff check --fix --quiet . || true
+	$(BIN)/ruff format .
+	$(CARGO) fmt --manifest-path $(NATIVE)/Cargo.toml
 
 bench: install
 	$(BIN)/fluidswarm bench
