@@ -126,6 +126,9 @@ class RunRecord:
     formation_seconds: float | None = None
     formation_wall_seconds: float | None = None
     formation_settled: bool | None = None
+    robot: str = "point"
+    collisions: int | None = None
+    min_separation_m: float | None = None
     figures: dict[str, float | int | str] = field(default_factory=dict)
     passed: bool = True
     why: list[str] = field(default_factory=list)
@@ -268,7 +271,8 @@ class Run:
         p = self.plan
         at = p.joiners_at if p.joiners_at is not None else tuple(p.setup.states[:, :2].mean(axis=0))
         control = p.joiner_control if p.joiner_control is not None else p.setup.controls[0]
-        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, **p.sync.spec())
+        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, robot=p.setup.robot.as_dict(),
+                                           **p.sync.spec())
 
     def _progress(self) -> None:
         if self._bar is None:
@@ -290,7 +294,21 @@ class Run:
             longest_stall_seconds=la.pacer.longest_stall(),
             failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
             failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
-            mcap=str(self.mcap) if self.mcap else None, finals=finals)
+            mcap=str(self.mcap) if self.mcap else None, finals=finals, **robot_figures(self.mcap, plan.setup))
+
+
+def robot_figures(mcap: Path | None, setup) -> dict:
+    """The record's robot fields: the model, and what the recorder measured on the bodies (collisions counted
+    once per pair and episode, closest approach; fluidswarm/recording/contacts.py), when it recorded them."""
+    from fluidswarm.recording.reader import recorded_robots
+
+    robot = getattr(setup, "robot", None)
+    out: dict = {"robot": robot.kind if robot is not None else "point"}
+    measured = recorded_robots(mcap) if mcap is not None and Path(mcap).exists() else None
+    if measured:
+        out["collisions"] = int(measured["collisions"])
+        out["min_separation_m"] = float(measured["min_separation_m"])
+    return out
 
 
 def busy_with_failures(run: Run) -> Callable[[], bool]:
