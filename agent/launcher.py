@@ -258,7 +258,7 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         near = initial_neighbours(everyone, [setup.states[index[i]][:2] for i in everyone], setup.params)
         for i in chosen:
             k = index[i]
-            extra = {**spec_extra, "neighbours": near[i], **(per_agent or {}).get(i, {})}
+            extra = {**spec_extra, "neighbours": near[i], "robot": setup.robot.as_dict(), **(per_agent or {}).get(i, {})}
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
         launcher.track_progress()
         launcher.wait_alive(everyone, startup_budget)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agent.sph.robot import POINT, RobotModel
 from fluidswarm.run import Run, SwarmPlan, Sync
 
 EXACT = 1e-9  # m: the agents' positions must match the reference driver's to this (float rounding only)
@@ -16,7 +17,8 @@ EXACT = 1e-9  # m: the agents' positions must match the reference driver's to th
 class Block:
     """`agents` agent processes on a spread block (agent/sph/setups.py) for `steps` steps; `ids` the slice
     started on this host (None: all); `record` an MCAP file to write (None: none); `reference`: compare the
-    final states with the per-particle reference driver (`figures["max_position_error"]` [m])."""
+    final states with the per-particle reference driver (`figures["max_position_error"]` [m]); `robot` the
+    particles' body and drive (agent/sph/robot.py; checked against the block by `setup()` before the run)."""
 
     agents: int
     steps: int
@@ -27,15 +29,22 @@ class Block:
     startup_timeout: float | None = None
     run_timeout: float | None = None
     kind: str = "launch"
+    robot: RobotModel = POINT
 
-    def drive(self, run: Run) -> None:
+    def make_setup(self):
+        """The block with its robots (ValueError naming the robot's key when they do not fit it)."""
         from agent.sph.setups import spread_block
 
+        setup = spread_block(self.agents)
+        return setup if self.robot == POINT else setup.with_robot(self.robot)
+
+    def drive(self, run: Run) -> None:
         run.launcher.check_ids(range(self.agents))  # before the recorder: nothing starts for a swarm too large
-        self.setup = setup = spread_block(self.agents)
+        self.setup = setup = self.make_setup()
         if self.record:
             run.record_to({"scenario": "launch", "agents": self.agents, "steps": self.steps,
-                           "params": setup.params.as_dict()}, setup.params.dt, path=self.record)
+                           "params": setup.params.as_dict(), "robot": setup.robot.as_dict()}, setup.params.dt,
+                          path=self.record)
         run.swarm(SwarmPlan(setup, self.steps, self.sync, ids=self.ids, swarm_ids=list(setup.ids),
                             startup_timeout=self.startup_timeout, run_timeout=self.run_timeout))
 
@@ -47,7 +56,7 @@ class Block:
 
         s, r = self.setup, run.record
         ids = self.ids if self.ids is not None else [int(i) for i in s.ids]
-        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params).run(self.steps)
+        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params, s.robot).run(self.steps)
         missing = [i for i in ids if i not in r.finals or not r.finals[i].done]
         r.figures["agents_missing"] = len(missing)
         if missing:

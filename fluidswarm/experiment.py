@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agent.protocol.errors import UserError
 from agent.sph.setups import branch_gap
 from fluidswarm.run import Run, SwarmPlan, Sync
 from fluidswarm.scenario import Scenario
@@ -15,14 +16,22 @@ DEFAULT_STEPS = 400
 
 
 def experiment_setup(sc: Scenario, agents: int):
-    """The scenario's set-up (agent/sph/setups.py) for `agents` particles, with its [sph] and dt overrides."""
+    """The scenario's set-up (agent/sph/setups.py) for `agents` particles, with its [sph] and dt overrides and its
+    [robot] (a UserError naming the key when the robots do not fit it)."""
     from agent.sph import setups
+    from agent.sph.robot import POINT
 
     base = {"branching": setups.branching, "drag": setups.drag}[sc.experiment]
-    default = base(agents)
+    setup = base(agents)
     if sc.sph or sc.dt:
-        return base(agents, params=default.params.with_overrides(sc.sph, sc.dt))
-    return default
+        setup = base(agents, params=setup.params.with_overrides(sc.sph, sc.dt))
+    if sc.robot == POINT:
+        return setup
+    try:
+        return setup.with_robot(sc.robot)
+    except ValueError as exc:
+        key, _, problem = str(exc).partition(": ")
+        raise UserError(f"{sc.path}: key '{key}': {problem}") from None
 
 
 def scenario_sync(sc: Scenario) -> Sync:
@@ -44,7 +53,7 @@ class Experiment:
         steps = sc.steps or DEFAULT_STEPS
         meta = {"scenario": sc.name, "scenario_file": str(sc.path), "experiment": sc.experiment, "agents": self.agents,
                 "steps": steps, "seed": sc.seed, "sync": sc.sync, "params": setup.params.as_dict(),
-                "agent_ids": [int(i) for i in setup.ids], "failures": [f.__dict__ for f in sc.failures]}
+                "robot": setup.robot.as_dict(), "agent_ids": [int(i) for i in setup.ids], "failures": [f.__dict__ for f in sc.failures]}
         run.record_to(meta, setup.params.dt)
         drop = {f.agent: {"drop_out": f.fraction} for f in sc.failures if f.kind == "drop"}
         run.swarm(SwarmPlan(setup, steps, scenario_sync(sc), per_agent=drop))

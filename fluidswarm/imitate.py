@@ -17,6 +17,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from agent.protocol.errors import UserError
+from agent.sph.robot import POINT, RobotModel
 from agent.supervisor import die_with_parent
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, observations_for, \
@@ -88,7 +90,7 @@ class FileImitation:
     """Imitate `input_path`: one frame (`frame`, default 0) until the formation settles (`settle`; None:
     always `steps` steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each shown for
     `frame_steps` swarm steps. `sph`/`dt` override the imitation's SPH parameters; `drop`: agent id ->
-    fraction of its states it drops (failure injection)."""
+    fraction of its states it drops (failure injection); `robot` the particles' body and drive."""
 
     input_path: str
     agents: int = 60
@@ -102,6 +104,7 @@ class FileImitation:
     drop: dict | None = None
     settle: SettleRule | None = SettleRule()
     kind: str = "imitation"
+    robot: RobotModel = POINT
 
     def __post_init__(self):
         if self.frame_steps > 0:
@@ -113,6 +116,11 @@ class FileImitation:
         im, commands = perceive(self.input_path, self.agents, self.controller, frame, sequence)
         if self.sph or self.dt:
             im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
+        if self.robot != POINT:
+            try:  # before the recorder, the coordinator and the agents start
+                im.setup = im.setup.with_robot(self.robot)
+            except ValueError as exc:
+                raise UserError(f"--robot: {exc}") from None
         self.im = im
         o = run.options
         tmp = run.scratch
@@ -120,7 +128,7 @@ class FileImitation:
         meta = {"scenario": o.name, "input": str(self.input_path), "frame": frame, "frame_steps": self.frame_steps,
                 "gesture": im.command.gesture, "controller": self.controller, "agents": self.agents,
                 "steps": self.steps, "seed": o.seed, "sync": self.sync.mode, "params": im.setup.params.as_dict(),
-                "agent_ids": list(range(self.agents)), "transform": im.transform.as_dict(),
+                "robot": im.setup.robot.as_dict(), "agent_ids": list(range(self.agents)), "transform": im.transform.as_dict(),
                 "failures": [getattr(f, "__dict__", str(f)) for f in o.failures]}
         run.record_to(meta, im.setup.params.dt, target=target, image=image)
         write_commands(tmp / "commands.json", commands)
@@ -157,11 +165,11 @@ class FileImitation:
 
 def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
             controller: str = DEFAULT_CONTROLLER, name: str = "imitate", frame: int | None = None, live: str = "",
-            progress: bool = False) -> RunRecord:
+            progress: bool = False, robot: RobotModel = POINT) -> RunRecord:
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 
-    kind = FileImitation(str(input_path), agents, steps, controller, frame)
+    kind = FileImitation(str(input_path), agents, steps, controller, frame, robot=robot)
     options = RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, progress=progress)
     with Run(kind, options) as run:
         kind.drive(run)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 from agent.protocol.errors import UserError
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
+from fluidswarm.robot_option import add_robot_argument, robot_model
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
@@ -34,6 +35,7 @@ def register(sub) -> None:
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
+    add_robot_argument(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_imitate)
@@ -63,7 +65,10 @@ def _imitate(args) -> int:
     if not 0 < args.stall_seconds < 3600:
         raise UserError(f"--stall-seconds: must be in (0, 3600), got {args.stall_seconds}")
     live = live_from_args(args)
+    robot = robot_model(args.robot)
     if args.camera is not None:
+        if args.robot is not None:
+            raise UserError("--robot: not yet with --camera (an input file only)")
         from fluidswarm.imitate_camera import imitate_camera
 
         record = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
@@ -73,7 +78,7 @@ def _imitate(args) -> int:
 
         try:
             record = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
-                             frame=args.frame, name=Path(args.input).stem or "imitate", live=live)
+                             frame=args.frame, name=Path(args.input).stem or "imitate", live=live, robot=robot)
         except (InputError, SegmentationError, ShapeError) as exc:
             raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
     if args.json:
@@ -91,6 +96,10 @@ def print_lines(r: RunRecord) -> None:
     print(f"formation_wall_seconds={r.formation_wall_seconds:.2f}")
     print(f"formation_settled={'true' if r.formation_settled else 'false'}")
     print(f"agents_finished={r.finished}")
+    print(f"robot={r.robot}")
+    if r.collisions is not None:
+        print(f"collisions={r.collisions}")
+        print(f"min_separation_m={r.min_separation_m:.4f}")
     print(f"steps_per_second={r.steps_per_second:.2f}")
     if r.realtime_factor is not None:
         print(f"realtime_factor={r.realtime_factor:.3f}")

@@ -131,6 +131,9 @@ class RunRecord:
     formation_seconds: float | None = None
     formation_wall_seconds: float | None = None
     formation_settled: bool | None = None
+    robot: str = "point"
+    collisions: int | None = None
+    min_separation_m: float | None = None
     figures: dict[str, float | int | str] = field(default_factory=dict)
     realtime_factor: float | None = None  # simulated seconds / wall seconds of the swarm's run
     subject: str = ""  # imitate --camera: "hand" | "person" (and how it was chosen)
@@ -284,7 +287,8 @@ class Run:
         p = self.plan
         at = p.joiners_at if p.joiners_at is not None else tuple(p.setup.states[:, :2].mean(axis=0))
         control = p.joiner_control if p.joiner_control is not None else p.setup.controls[0]
-        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, **p.sync.spec())
+        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, robot=p.setup.robot.as_dict(),
+                                           **p.sync.spec())
 
     def _progress(self) -> None:
         if self._bar is None:
@@ -308,7 +312,8 @@ class Run:
             longest_stall_seconds=la.pacer.longest_stall(),
             failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
             failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
-            mcap=str(self.mcap) if self.mcap else None, finals=finals, realtime_factor=la.pacer.realtime_factor())
+            mcap=str(self.mcap) if self.mcap else None, finals=finals, realtime_factor=la.pacer.realtime_factor(),
+            **robot_figures(self.mcap, plan.setup))
 
     def _behind_real_time(self) -> None:
         """A real-time swarm that could not keep up says so, once, with the factor it reached."""
@@ -318,6 +323,20 @@ class Run:
                     f"{f:.0%} as fast as the wall clock)")
             self.record.notes.append(note)
             print(f"fluidswarm: {note}", file=sys.stderr)
+
+
+def robot_figures(mcap: Path | None, setup) -> dict:
+    """The record's robot fields: the model, and what the recorder measured on the bodies (collisions counted
+    once per pair and episode, closest approach; fluidswarm/recording/contacts.py), when it recorded them."""
+    from fluidswarm.recording.reader import recorded_robots
+
+    robot = getattr(setup, "robot", None)
+    out: dict = {"robot": robot.kind if robot is not None else "point"}
+    measured = recorded_robots(mcap) if mcap is not None and Path(mcap).exists() else None
+    if measured:
+        out["collisions"] = int(measured["collisions"])
+        out["min_separation_m"] = float(measured["min_separation_m"])
+    return out
 
 
 def busy_with_failures(run: Run) -> Callable[[], bool]:

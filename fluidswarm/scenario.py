@@ -12,6 +12,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from agent.sph.params import SPHParams
+from agent.sph.robot import POINT, RobotModel, robot_from
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
@@ -114,6 +115,7 @@ class Scenario:
     async_max_age: float = 1.0  # s: older neighbour states are not used (sync = "async")
     neighbour_timeout: float = 0.0  # s a silent expected neighbour is waited for (0: the experiment's default)
     sph: dict = field(default_factory=dict)
+    robot: RobotModel = POINT  # [robot]: kind, radius, v_max, a_max, omega_max, offset (agent/sph/robot.py)
     failures: tuple[Failure, ...] = ()
     passing: PassCriteria = PassCriteria()
     description: str = ""
@@ -161,7 +163,7 @@ def load_scenario(path: str | Path) -> Scenario:
     except RecursionError:  # arrays or inline tables nested deeper than tomllib's stack
         raise UserError(f"{file}: not valid TOML (nested too deep)") from None
     top = {"name", "description", "experiment", "input", "frame", "frame_steps", "controller", "agents", "steps", "dt",
-           "seed", "sync", "async_rate", "async_max_age", "neighbour_timeout", "sph", "failures", "pass"}
+           "seed", "sync", "async_rate", "async_max_age", "neighbour_timeout", "sph", "robot", "failures", "pass"}
     _check_keys(file, "", raw, top)
     kw: dict = {"name": _typed(file, "name", raw.get("name", path.stem), str), "path": path}
     for key, kind in (("description", str), ("experiment", str), ("input", str), ("controller", str),
@@ -207,6 +209,7 @@ def load_scenario(path: str | Path) -> Scenario:
             raise UserError(f"{file}: key 'sph.{key}': an imitation's stiffness and viscosity are set per class "
                             f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)")
     kw["sph"] = sph
+    kw["robot"] = scenario_robot(file, _typed(file, "robot", raw.get("robot", {}), dict))
     failures = []
     raw_f = raw.get("failures", [])
     if not isinstance(raw_f, list):
@@ -239,3 +242,14 @@ def load_scenario(path: str | Path) -> Scenario:
             raise UserError(f"{file}: key 'pass.{k}': must be >= 0, got {v}")
     kw["passing"] = PassCriteria(**crit)
     return Scenario(**kw)
+
+
+def scenario_robot(file: str, table: dict, kind: str | None = None) -> RobotModel:
+    """The [robot] table (and a --robot kind over it) as a RobotModel; bad input names the key."""
+    if not table and kind is None:
+        return POINT
+    try:
+        return robot_from(kind, table)
+    except (ValueError, TypeError) as exc:
+        key, _, problem = str(exc).partition(": ")
+        raise UserError(f"{file}: key '{key}': {problem}") from None

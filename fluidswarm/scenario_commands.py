@@ -11,7 +11,9 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario, scenarios_dir
+from fluidswarm.robot_option import add_robot_argument
+from agent.sph.robot import POINT
+from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario, scenario_robot, scenarios_dir
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
@@ -36,11 +38,13 @@ def register(sub) -> None:
     g.add_argument("--late-join", action="append", default=[], metavar="K@STEP", help="start K extra agents at STEP")
     g.add_argument("--compare", action="store_true",
                    help="also run without failures (same seed) and print fidelity_ratio")
+    add_robot_argument(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
     p.add_argument("--out", default="out/demo")
+    add_robot_argument(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_demo)
@@ -95,8 +99,9 @@ def failures_from_args(args) -> list[Failure]:
 def kind_for(sc: Scenario, agents: int):
     """The scenario's RunKind: an imitation (one frame or a gesture sequence) or a physics experiment."""
     if sc.experiment != "imitate":
-        from fluidswarm.experiment import Experiment
+        from fluidswarm.experiment import Experiment, experiment_setup
 
+        experiment_setup(sc, agents)  # its robots must fit it before anything starts
         return Experiment(sc, agents)
     from coordinator.control.imitation_setup import DEFAULT_STEPS
     from fluidswarm.imitate import FileImitation
@@ -109,7 +114,7 @@ def kind_for(sc: Scenario, agents: int):
     if any(a >= agents for a in drop):
         raise UserError(f"{sc.path}: key 'failures': drop names agent {max(drop)}, the swarm has ids 0..{agents - 1}")
     return FileImitation(str(path), agents, sc.steps or DEFAULT_STEPS, sc.controller, None if sc.frame < 0 else sc.frame,
-                         sc.frame_steps, sc.sph, sc.dt, scenario_sync(sc), drop)
+                         sc.frame_steps, sc.sph, sc.dt, scenario_sync(sc), drop, robot=sc.robot)
 
 
 def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
@@ -159,7 +164,16 @@ def scenario_figures(r: RunRecord) -> dict:
                  formation_seconds=r.formation_seconds, formation_wall_seconds=r.formation_wall_seconds)
     f.update({k: v for k, v in r.figures.items() if k not in ROBUSTNESS})
     f.update(longest_stall_seconds=r.longest_stall_seconds, neighbour_timeout_seconds=r.neighbour_timeout_seconds)
+    f.update(robot_lines(r))
     f.update({k: r.figures[k] for k in ROBUSTNESS if k in r.figures})
+    return f
+
+
+def robot_lines(r: RunRecord) -> dict:
+    """robot=, and what the recorder measured on the bodies (collisions=, min_separation_m=) when it did."""
+    f: dict = {"robot": r.robot}
+    if r.collisions is not None:
+        f.update(collisions=r.collisions, min_separation_m=r.min_separation_m)
     return f
 
 
@@ -197,10 +211,15 @@ def _run(args) -> int:
     extra = failures_from_args(args)
     if extra or args.sync:
         sc = replace(sc, failures=sc.failures + tuple(extra), sync=args.sync or sc.sync)
+    if args.robot is not None:
+        sc = replace(sc, robot=scenario_robot(str(sc.path), {k: v for k, v in sc.robot.as_dict().items() if k != "kind"}
+                                              if sc.robot != POINT else {}, args.robot))
     out = Path(args.out or f"out/{sc.name}")
     return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live_from_args(args)))
 
 
 def _demo(args) -> int:
     sc = load_scenario(scenarios_dir() / DEMO_SCENARIO)
+    if args.robot is not None:
+        sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
     return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args)))

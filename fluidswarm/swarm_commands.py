@@ -9,6 +9,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
+from fluidswarm.robot_option import add_robot_argument, robot_model
 
 
 def register(sub) -> None:
@@ -30,6 +31,7 @@ def register(sub) -> None:
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
     add_live_argument(p)
+    add_robot_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_launch)
 
@@ -41,6 +43,7 @@ def register(sub) -> None:
     p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
     _add_auth_file_argument(p)
+    add_robot_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_verify)
 
@@ -125,6 +128,14 @@ def _options(args, name: str, timeout: float):
     return RunOptions(name, None, timeout, run=args.run, connect=args.connect, auth_file=_auth_file(args))
 
 
+def _check_block(kind) -> None:
+    """The robots must fit the block before anything starts (one line naming the robot's key)."""
+    try:
+        kind.make_setup()
+    except ValueError as exc:
+        raise UserError(f"--robot: {exc}") from None
+
+
 def _launch(args) -> int:
     from fluidswarm.block import Block
     from fluidswarm.run import Run, Sync
@@ -140,7 +151,9 @@ def _launch(args) -> int:
     options = _options(args, "launch", args.timeout)
     options.live = live_from_args(args)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
-    kind = Block(args.agents, args.steps, Sync(args.mode, args.rate, args.max_age), ids, args.record)
+    kind = Block(args.agents, args.steps, Sync(args.mode, args.rate, args.max_age), ids, args.record,
+                 robot=robot_model(args.robot))
+    _check_block(kind)
     with Run(kind, options) as run:
         # the run's name and router come first, as they happen: the other hosts of a split run need them
         print(f"run={run.launcher.run} router={run.launcher.endpoint}", flush=True,
@@ -169,7 +182,8 @@ def _verify(args) -> int:
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     if args.ids and not args.run:
         raise UserError("--ids needs --run: every host of a split run must use the same run name")
-    kind = Block(args.agents, args.steps, ids=ids, reference=True, kind="verify")
+    kind = Block(args.agents, args.steps, ids=ids, reference=True, kind="verify", robot=robot_model(args.robot))
+    _check_block(kind)
     with Run(kind, _options(args, "verify", args.timeout)) as run:
         kind.drive(run)
     r = run.record

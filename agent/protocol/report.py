@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from agent.protocol.json_fields import integer, number
+from agent.sph.particle import NFIELDS
 
 VERSION = 1
 MAX_BYTES = 64 * 1024  # a report is ~1 kB; anything far larger is not one
@@ -29,7 +30,8 @@ class Status(str, Enum):
 
 @dataclass(frozen=True)
 class FinalReport:
-    """One agent's end: `state` is its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen) in SI units;
+    """One agent's end: `state` is its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen, heading, speed:
+    agent/sph/particle.py) in SI units;
     times are Unix seconds (None when never reached); `rss_mb` the process's peak RSS [MB]; `cpu_seconds`
     process CPU time [s]; the command fields are -1 / None unless the agent follows gesture commands."""
 
@@ -79,7 +81,7 @@ def decode_report(data: bytes) -> FinalReport | None:
         if not isinstance(msg, dict) or msg.get("v", VERSION) != VERSION:
             return None
         state = msg["state"]
-        if not isinstance(state, list) or not 9 <= len(state) <= 10:
+        if not isinstance(state, list) or not 9 <= len(state) <= NFIELDS:
             return None
         rejected = msg.get("rejected", {})
         if not isinstance(rejected, dict) or len(rejected) > 64:

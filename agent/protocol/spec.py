@@ -10,6 +10,7 @@ from enum import StrEnum
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
+from agent.sph.robot import RobotModel
 
 
 
@@ -68,6 +69,7 @@ class AgentSpec:
     max_age        s: in async mode a neighbour state older than this is not used (frozen, gone or far)
     neighbours     [[id, x, y], ...]: agents placed near this one; those in its watched cells are its step-0
                    neighbours (agent/initial_neighbours.py)
+    robot          the particle's body and drive, RobotModel fields (agent/sph/robot.py; {}: a point)
     """
 
     run: str
@@ -87,6 +89,7 @@ class AgentSpec:
     rate: float = 12.0
     max_age: float = 1.0
     neighbours: list = field(default_factory=list)
+    robot: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), separators=(",", ":"))
@@ -138,8 +141,16 @@ class AgentSpec:
                 and 0 <= n[0] < MAX_AGENTS and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
                 for n in self.neighbours):
             raise ValueError(f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)")
-        self.sph_params()
+        self.robot_model().check_fits(self.sph_params().v_max)
         self.static_control()
+
+    def robot_model(self) -> RobotModel:
+        if not isinstance(self.robot, dict):
+            raise ValueError(f"agent spec: robot must be an object, got {self.robot!r}")
+        try:
+            return RobotModel(**self.robot)
+        except TypeError as exc:
+            raise ValueError(f"agent spec: robot: {exc}") from None
 
     def sph_params(self) -> SPHParams:
         if not isinstance(self.params, dict):

@@ -1,9 +1,9 @@
-"""Binary state record exchanged between agents (wire format v1), encoded and decoded only here.
+"""Binary state record exchanged between agents (wire format v2), encoded and decoded only here.
 
-Layout, little-endian, 88 bytes (docs/protocol.md):
+Layout, little-endian, 104 bytes (docs/protocol.md):
 
     offset  type     field
-    0       u8       version (= 1)
+    0       u8       version (= 2)
     1       u8       kind (= 1, state)
     2       u16      flags (bit 0: frozen, the particle left the domain)
     4       u32      agent id
@@ -11,25 +11,32 @@ Layout, little-endian, 88 bytes (docs/protocol.md):
     12      u16      particle class (from the gesture command; 0 if none)
     14      u16      reserved (0)
     16      9 x f64  x, y, vx, vy, rho, p, sxx, sxy, syy   (SI units; rho/p/s of the previous step)
+    88      f64      heading [rad] in [-pi, pi] (a unicycle robot's, agent/sph/robot.py; 0 otherwise)
+    96      f64      forward speed [m/s] (a unicycle's; 0 otherwise)
 
-Messages come from the network and are untrusted: `decode_state` checks length, version, kind, finiteness
-and ranges, and returns None (the caller counts the rejection) instead of raising.
+Messages come from the network and are untrusted: `decode_state` checks version, length, kind, finiteness
+and ranges, and returns None (the caller counts the rejection) instead of raising. The version byte comes
+first, so a record of an older version is refused as such ("version": v1, the 88-byte record without a
+pose), whatever its length.
 """
 
 from __future__ import annotations
 
 import struct
 
-from agent.sph.particle import FROZEN, NFIELDS
+import math
 
-VERSION = 1
+from agent.sph.particle import FROZEN, HEADING, NFIELDS, SPEED, X
+
+VERSION = 2
 KIND_STATE = 1
 _HEADER = struct.Struct("<BBHIIHH")
-_RECORD = struct.Struct("<BBHIIHH9d")
+_RECORD = struct.Struct("<BBHIIHH11d")
 _ID_STEP = struct.Struct("<II")  # agent id and step, at offset 4
 _HEAD_XY = struct.Struct("<BBHIIHH2d")  # the header and the first two values (x, y)
 _FLAG_VALUE = (0.0, 1.0)  # flags bit 0 (frozen) as the state's FROZEN field
-STATE_SIZE = _RECORD.size  # 88
+STATE_SIZE = _RECORD.size  # 104
+_VERSION_BYTE = bytes([VERSION])
 MAX_ID = 2**31 - 1
 MAX_ABS = 1e12  # larger magnitudes are garbage, not physics
 
@@ -41,7 +48,8 @@ REJECT_VALUE = "value"
 
 def encode_state(agent_id: int, step: int, state, particle_class: int = 0) -> bytes:
     flags = 1 if state[FROZEN] != 0.0 else 0
-    return _RECORD.pack(VERSION, KIND_STATE, flags, agent_id, step, particle_class, 0, *map(float, state[:9]))
+    return _RECORD.pack(VERSION, KIND_STATE, flags, agent_id, step, particle_class, 0, *map(float, state[X:FROZEN]),
+                        float(state[HEADING]), float(state[SPEED]))
 
 
 def peek_id_step(data: bytes) -> tuple[int, int] | None:
@@ -55,6 +63,8 @@ def peek_id_step(data: bytes) -> tuple[int, int] | None:
 def peek_id_position(data: bytes):
     """((agent_id, x, y), None) of a state record, for routing it by position (the relays), or
     (None, reason) as decode_state gives it for the header and the position. Receivers decode it in full."""
+    if data[:1] != _VERSION_BYTE:
+        return None, REJECT_VERSION
     if len(data) != STATE_SIZE:
         return None, REJECT_LENGTH
     version, kind, _flags, agent_id, _step, _cls, _pad, x, y = _HEAD_XY.unpack_from(data)
@@ -67,6 +77,8 @@ def peek_id_position(data: bytes):
 
 def decode_state(data: bytes):
     """(agent_id, step, particle_class, values) with values a tuple of NFIELDS floats, or (None, reason)."""
+    if data[:1] != _VERSION_BYTE:
+        return None, REJECT_VERSION
     if len(data) != STATE_SIZE:
         return None, REJECT_LENGTH
     record = _RECORD.unpack(data)
@@ -81,5 +93,7 @@ def decode_state(data: bytes):
             return None, REJECT_VALUE
     if values[4] <= 0.0:  # a density must be positive
         return None, REJECT_VALUE
+    if not -math.pi <= values[9] <= math.pi:  # a heading is an angle in [-pi, pi]
+        return None, REJECT_VALUE
     # A tuple of floats: immutable, and not tracked by the garbage collector.
-    return (agent_id, step, particle_class, values + (_FLAG_VALUE[flags],)), None
+    return (agent_id, step, particle_class, values[:9] + (_FLAG_VALUE[flags],) + values[9:]), None

@@ -25,11 +25,14 @@ from agent.sph.equations import (artificial_viscosity, body_force, density_terms
                                   stress_rate_terms, tait_pressure)
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
+from agent.sph.robot import (POINT, RobotKind, RobotModel, contact_acceleration, holonomic_velocity, initial_pose,
+                             unicycle_step)
 
-# State layout: position, velocity, then the lagged fluid quantities the neighbours need, then flags.
-X, Y, VX, VY, RHO, P, SXX, SXY, SYY, FROZEN = range(10)
-NFIELDS = 10
-FIELD_NAMES = ("x", "y", "vx", "vy", "rho", "p", "sxx", "sxy", "syy", "frozen")
+# State layout: position, velocity, then the lagged fluid quantities the neighbours need, then flags, then
+# a robot's pose (agent/sph/robot.py): heading [rad] and forward speed [m/s] of a unicycle (0 otherwise).
+X, Y, VX, VY, RHO, P, SXX, SXY, SYY, FROZEN, HEADING, SPEED = range(12)
+NFIELDS = 12
+FIELD_NAMES = ("x", "y", "vx", "vy", "rho", "p", "sxx", "sxy", "syy", "frozen", "heading", "speed")
 
 
 @dataclass(frozen=True)
@@ -58,11 +61,13 @@ class Control:
         return self
 
 
-def initial_state(x: float, y: float, vx: float, vy: float, params: SPHParams) -> np.ndarray:
-    """State at step 0: density at rest (rho0), so zero pressure and zero stress until step 1."""
+def initial_state(x: float, y: float, vx: float, vy: float, params: SPHParams, robot: RobotModel = POINT) -> np.ndarray:
+    """State at step 0: density at rest (rho0), so zero pressure and zero stress until step 1; a robot's
+    initial pose (robot.initial_pose)."""
     state = np.zeros(NFIELDS)
     state[[X, Y, VX, VY]] = x, y, vx, vy
     state[RHO] = params.rho0
+    state[HEADING], state[SPEED] = initial_pose(vx, vy, robot)
     return state
 
 
@@ -74,12 +79,14 @@ def interacting(own: np.ndarray, neighbours: np.ndarray, params: SPHParams) -> n
     return neighbours[(dx * dx + dy * dy <= support * support) & (neighbours[:, FROZEN] == 0.0)]
 
 
-def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, params: SPHParams) -> np.ndarray:
+def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, params: SPHParams,
+                  robot: RobotModel = POINT) -> np.ndarray:
     """Next state of one particle from its own state and its neighbours' states (rows sorted by id).
 
     `neighbours` may hold any superset of the particles within kappa*h (self excluded): rows outside the
     support or frozen are dropped here, so every caller gets the same sums in the same order.
-    Integration: symplectic Euler, v' = v + dt a, x' = x + dt v' (speed capped at v_max).
+    Integration: symplectic Euler, v' = v + dt a, x' = x + dt v' (speed capped at v_max). A robot takes
+    u = v + dt a as its desired velocity and moves as its drive allows (agent/sph/robot.py).
     """
     if own[FROZEN] != 0.0:
         return own.copy()
@@ -98,11 +105,20 @@ def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, par
     fx, fy = body_force(own[X], own[Y], control.wx, control.wy, control.r, control.s, control.alpha)
     acc_x = float(np.sum(ax)) + float(fx) + control.push_x - params.drag * own[VX]
     acc_y = float(np.sum(ay)) + float(fy) + control.push_y - params.drag * own[VY]
+    if robot.kind != RobotKind.POINT:  # robots keep their bodies apart (robot.py: contact_terms)
+        cx, cy = contact_acceleration(own, nb, robot)
+        acc_x, acc_y = acc_x + cx, acc_y + cy
 
     new = own.copy()
     new[VX], new[VY] = own[VX] + params.dt * acc_x, own[VY] + params.dt * acc_y
-    cap_speed(new, params)
-    new[X], new[Y] = own[X] + params.dt * new[VX], own[Y] + params.dt * new[VY]
+    if robot.kind == RobotKind.UNICYCLE:
+        (new[X], new[Y], new[VX], new[VY], new[HEADING], new[SPEED]) = unicycle_step(
+            own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt)
+    else:
+        if robot.kind == RobotKind.HOLONOMIC:
+            new[VX], new[VY] = holonomic_velocity(own[VX], own[VY], new[VX], new[VY], robot, params.dt)
+        cap_speed(new, params)
+        new[X], new[Y] = own[X] + params.dt * new[VX], own[Y] + params.dt * new[VY]
     apply_border(new, params)
 
     # Fluid quantities of the current configuration, published with the next state (eq. 3.5, 3.11, 3.13).
@@ -114,7 +130,7 @@ def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, par
     new[SXY] = control.mu * float(np.sum(exy))
     new[SYY] = control.mu * float(np.sum(eyy))
     if new[FROZEN] != 0.0:  # thesis: a particle leaving the domain loses its fluid parameters
-        new[[VX, VY, P, SXX, SXY, SYY]] = 0.0
+        new[[VX, VY, P, SXX, SXY, SYY, SPEED]] = 0.0
     return new
 
 

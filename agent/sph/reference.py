@@ -17,9 +17,11 @@ from agent.sph.equations import (artificial_viscosity, body_force, density_terms
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
 from agent.sph.particle import (
-    FROZEN, NFIELDS, P, RHO, SXX, SXY, SYY, VX, VY, X, Y,
+    FROZEN, HEADING, NFIELDS, P, RHO, SPEED, SXX, SXY, SYY, VX, VY, X, Y,
     Control, apply_border, cap_speed, step_particle,
 )
+from agent.sph.robot import (CONTACT_MARGIN, POINT, RobotKind, RobotModel, body_centres, contact_terms,
+                             holonomic_velocity, unicycle_step)
 
 
 class ControlSource(Protocol):
@@ -75,14 +77,17 @@ def cell_pairs(positions: np.ndarray, active: np.ndarray, cell: float) -> tuple[
 
 class Driver:
     """A centralised solver of the swarm: particles sorted by id (an agent's neighbour order), one
-    `step()` a time step of all of them; `run(steps)` returns the states after the last."""
+    `step()` a time step of all of them; `run(steps)` returns the states after the last. `robot`: every
+    particle's body and drive (agent/sph/robot.py)."""
 
-    def __init__(self, ids: Sequence[int], states: np.ndarray, controls: Sequence[ControlSource], params: SPHParams):
+    def __init__(self, ids: Sequence[int], states: np.ndarray, controls: Sequence[ControlSource], params: SPHParams,
+                 robot: RobotModel = POINT):
         order = np.argsort(np.asarray(ids), kind="stable")
         self.ids = np.asarray(ids)[order]
         self.states = np.array(states, dtype=float)[order]
         self.controls = [controls[k] for k in order]
         self.params = params
+        self.robot = robot
         self.step_index = 0
 
     def step(self) -> None:
@@ -106,7 +111,7 @@ class PerParticleDriver(Driver):
         for k in range(len(current)):
             neighbours = current[np.sort(by_particle[k])]  # ids are sorted, so index order is id order
             control = self.controls[k].control(current[k], self.step_index)
-            new[k] = step_particle(current[k], neighbours, control, params)
+            new[k] = step_particle(current[k], neighbours, control, params, self.robot)
         self.states = new
         self.step_index += 1
 
@@ -135,13 +140,27 @@ class VectorisedDriver(Driver):
         fx, fy = body_force(s[:, X], s[:, Y], ctl["wx"], ctl["wy"], ctl["r"], ctl["s"], ctl["alpha"])
         acc_x = np.bincount(i, ax, n) + fx + ctl["push_x"] - params.drag * s[:, VX]
         acc_y = np.bincount(i, ay, n) + fy + ctl["push_y"] - params.drag * s[:, VY]
+        robot = self.robot
+        if robot.kind != RobotKind.POINT:
+            c = body_centres(s, robot)
+            tx, ty = contact_terms(c[i, 0] - c[j, 0], c[i, 1] - c[j, 1], CONTACT_MARGIN * 2.0 * robot.radius,
+                                   robot.v_max ** 2)
+            acc_x, acc_y = acc_x + np.bincount(i, tx, n), acc_y + np.bincount(i, ty, n)
 
         new = s.copy()
         new[:, VX] = s[:, VX] + params.dt * acc_x
         new[:, VY] = s[:, VY] + params.dt * acc_y
-        cap_speed(new, params)
-        new[:, X] = s[:, X] + params.dt * new[:, VX]
-        new[:, Y] = s[:, Y] + params.dt * new[:, VY]
+        if robot.kind == RobotKind.UNICYCLE:  # the drive is per robot: a loop, as the agents do it
+            for k in range(n):
+                new[k, [X, Y, VX, VY, HEADING, SPEED]] = unicycle_step(
+                    s[k, X], s[k, Y], s[k, HEADING], s[k, SPEED], new[k, VX], new[k, VY], robot, params.dt)
+        else:
+            if robot.kind == RobotKind.HOLONOMIC:
+                for k in range(n):
+                    new[k, [VX, VY]] = holonomic_velocity(s[k, VX], s[k, VY], new[k, VX], new[k, VY], robot, params.dt)
+            cap_speed(new, params)
+            new[:, X] = s[:, X] + params.dt * new[:, VX]
+            new[:, Y] = s[:, Y] + params.dt * new[:, VY]
         apply_border(new, params)
 
         rho = m * gaussian_kernel(0.0, h, params.kappa) + np.bincount(i, density_terms(np.hypot(dx, dy), m, h, params.kappa), n)
@@ -152,7 +171,7 @@ class VectorisedDriver(Driver):
         new[:, SXY] = ctl["mu"] * np.bincount(i, exy, n)
         new[:, SYY] = ctl["mu"] * np.bincount(i, eyy, n)
         frozen_now = new[:, FROZEN] != 0.0
-        new[np.ix_(frozen_now, [VX, VY, P, SXX, SXY, SYY])] = 0.0
+        new[np.ix_(frozen_now, [VX, VY, P, SXX, SXY, SYY, SPEED])] = 0.0
         new[~active] = s[~active]  # frozen particles stay as they were
         self.states = new
         self.step_index += 1

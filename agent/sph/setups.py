@@ -6,17 +6,19 @@ starts from the same deterministic set-up.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from agent.sph.params import SPHParams
-from agent.sph.particle import X, Y, Control, initial_state
+from agent.sph.particle import HEADING, SPEED, VX, VY, X, Y, Control, initial_state
+from agent.sph.robot import POINT, RobotModel, body_centres, check_layout, initial_pose
 
 
 @dataclass
 class Setup:
-    """A deterministic set-up: ids, initial states (N, NFIELDS), a Control per particle, class labels."""
+    """A deterministic set-up: ids, initial states (N, NFIELDS), a Control per particle, class labels, and
+    the particles' body and drive (`robot`, agent/sph/robot.py; `with_robot` gives another)."""
 
     ids: np.ndarray
     states: np.ndarray
@@ -24,6 +26,17 @@ class Setup:
     classes: np.ndarray  # small integer label per particle (for colouring and per-class statistics)
     class_names: tuple[str, ...]
     params: SPHParams
+    robot: RobotModel = POINT
+
+    def with_robot(self, robot: RobotModel) -> "Setup":
+        """This set-up with `robot` bodies: their initial poses, checked against the fluid's speed limit and
+        the start layout (ValueError naming the robot's key)."""
+        robot.check_fits(self.params.v_max)
+        states = np.array(self.states, dtype=float)
+        for row in states:
+            row[HEADING], row[SPEED] = initial_pose(row[VX], row[VY], robot)
+        check_layout(body_centres(states, robot), robot)
+        return replace(self, states=states, robot=robot)
 
 
 def lattice(n: int, columns: int, spacing: float = 1.0, origin: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:

@@ -235,6 +235,20 @@ def recorded_fidelity(path: str | os.PathLike) -> Fidelity | None:
     return None
 
 
+def recorded_robots(path: str | os.PathLike) -> dict | None:
+    """What the recorder measured on the robots' bodies (metadata `robots`: robot, radius_m, collisions,
+    min_separation_m; fluidswarm/recording/contacts.py), or None (point particles, or no file)."""
+    path = Path(path)
+    with _open_checked(path) as fh:
+        try:
+            for record in make_reader(fh).iter_metadata():
+                if record.name == "robots":
+                    return decode_metadata(record.metadata)
+        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+    return None
+
+
 def _read(path: Path, reader, want_images: bool) -> Run:
     """The run from `reader`: mcap's reader of a finished file, or a Salvage (iter_metadata, iter_attachments,
     iter_messages yielding (schema, channel, message))."""

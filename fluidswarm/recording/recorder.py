@@ -31,9 +31,19 @@ from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
+from agent.sph.robot import POINT, RobotModel
+from fluidswarm.recording.contacts import ContactCounter
 from fluidswarm.recording.live import LiveServer, parse_address
 from fluidswarm.recording.steps import Recorder
 from fluidswarm.recording.writer import RunWriter
+
+
+def robot_of(metadata: dict) -> RobotModel:
+    """The run's robots (metadata `robot`, RobotModel fields, written by the run); a point without one."""
+    try:
+        return RobotModel(**metadata.get("robot", {}))
+    except (TypeError, ValueError):
+        return POINT
 
 
 def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2) -> None:
@@ -90,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.image:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
-    recorder = Recorder(args.run, writer, args.dt)
+    robot = robot_of(metadata)
+    recorder = Recorder(args.run, writer, args.dt, None if robot.is_point else ContactCounter(robot))
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)
     session = zenoh.open(client_config([args.connect]))
     try:
@@ -118,6 +129,8 @@ def main(argv: list[str] | None = None) -> int:
         recorder.finish()
         if target is not None and recorder.last_positions is not None:
             writer.write_fidelity(fidelity(*target, recorder.last_positions))
+        if recorder.contacts is not None:
+            writer.write_robots(recorder.contacts.figures())
         writer.close()
         try:
             session.close()

@@ -40,8 +40,10 @@ LEFT = {Status.DONE: ("finished", "finished"), Status.STOPPED: ("stopped", "was 
 
 
 class Recorder:
-    def __init__(self, run: str, writer: RunWriter, dt: float):
+    def __init__(self, run: str, writer: RunWriter, dt: float, contacts=None):
+        """`contacts`: a fluidswarm.recording.contacts.ContactCounter fed every step written (robots), or None."""
         self.run = run
+        self.contacts = contacts
         self.writer = writer
         self.dt = dt
         self.inbox: queue.SimpleQueue = queue.SimpleQueue()
@@ -223,6 +225,8 @@ class Recorder:
         vals = np.array([have[j][1] for j in ids])
         cls = np.array([have[j][0] for j in ids], dtype=np.int64)
         self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
+        if self.contacts is not None:
+            self.contacts.update(ids, vals)
         self.last_written = (step, vals[:, [X, Y]])
         if not missing:
             self.last_complete = self.last_written

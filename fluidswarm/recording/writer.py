@@ -255,6 +255,11 @@ class RunWriter:
                   "fidelity_coverage": float(fidelity.coverage), "nn_cv": float(fidelity.nn_cv)}
         return self._submit(lambda: self._mcap.add_metadata("fidelity", encode_metadata(values)))
 
+    def write_robots(self, figures: dict) -> bool:
+        """What a robot user measures (fluidswarm/recording/contacts.py: robot, radius_m, collisions,
+        min_separation_m) as metadata record `robots`."""
+        return self._submit(lambda: self._mcap.add_metadata("robots", encode_metadata(figures)))
+
     def write_command(self, t: float, command_json: str) -> bool:
         """A gesture command (a JSON object, as published) on `fluidswarm/<run>/command`."""
         try:

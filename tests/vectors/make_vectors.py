@@ -4,7 +4,7 @@
 The files next to this script are committed; tests/test_vectors.py checks the Python codecs against them
 and agent/native/tests/vectors.rs the Rust ones, so both implementations make the same decisions:
 
-    state_records.json      wire.decode_state: 88-byte records, valid and rejected (reason)
+    state_records.json      wire.decode_state: 104-byte v2 records (and a refused v1 one), valid and rejected (reason)
     commands.json           agent.protocol.command.decode: envelopes (raw bytes in hex), accepted (parsed
                             fields, the fill shape when there is one) or rejected (reason)
     command_sequences.json  coordinator.control.route.CommandFollower: offers in order with each answer, and controls

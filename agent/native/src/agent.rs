@@ -143,7 +143,7 @@ impl Agent {
         // the neighbour can have moved to since must be watched (docs/protocol.md, "Expected agents")
         let r_sub = params.support() + 10.0 * d;
         let [x, y, vx, vy] = spec.initial;
-        let state = sph::initial_state(x, y, vx, vy, &params);
+        let state = sph::initial_state(x, y, vx, vy, &params, &spec.robot);
         // splitmix64 seeded by the id: the drop-out failure injection is reproducible per agent.
         let rng = (spec.id as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
         Agent {

@@ -67,7 +67,7 @@ impl Following {
     }
 }
 
-/// One agent's end: `state` its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen) in SI units; times in
+/// One agent's end: `state` its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen, heading, speed) in SI units; times in
 /// Unix seconds (None: never reached); `rss_mb` its peak RSS [MB], `cpu_seconds` its CPU time [s].
 #[derive(Clone, Debug, PartialEq)]
 pub struct FinalReport {

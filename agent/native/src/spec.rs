@@ -7,8 +7,9 @@ mod fields;
 use serde_json::Value;
 
 use crate::keys;
+use crate::robot::Robot;
 use crate::sph::{Control, Params};
-use fields::{err, number, only, parse_control, parse_neighbours, parse_params, positive, string};
+use fields::{err, number, only, parse_control, parse_neighbours, parse_params, parse_robot, positive, string};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
@@ -40,11 +41,13 @@ pub struct AgentSpec {
     /// (id, x, y) of the agents the launcher placed near this one: the step-0 neighbours are those whose
     /// initial cell is within R_sub (docs/protocol.md, "Step 0")
     pub neighbours: Vec<(u32, f64, f64)>,
+    /// The particle's body and drive (agent/sph/robot.py); a point unless told
+    pub robot: Robot,
 }
 
 const FIELDS: &[&str] = &[
     "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
-    "secret", "join", "state_key_ids", "mode", "rate", "max_age", "neighbours",
+    "secret", "join", "state_key_ids", "mode", "rate", "max_age", "neighbours", "robot",
 ];
 
 impl AgentSpec {
@@ -112,6 +115,8 @@ impl AgentSpec {
         if secret.len() % 2 != 0 || !secret.bytes().all(|b| b.is_ascii_hexdigit()) {
             return err("secret must be hex".into());
         }
+        let params = parse_params(obj.get("params"))?;
+        let robot = parse_robot(obj.get("robot"), params.v_max)?;
         Ok(AgentSpec {
             run,
             id,
@@ -119,7 +124,7 @@ impl AgentSpec {
             steps,
             initial: [initial[0], initial[1], initial[2], initial[3]],
             control: parse_control(obj.get("control"))?,
-            params: parse_params(obj.get("params"))?,
+            params,
             timeout: positive(&obj, "timeout", 2.0)?,
             start_timeout: positive(&obj, "start_timeout", 120.0)?,
             drop_out,
@@ -130,6 +135,7 @@ impl AgentSpec {
             rate: positive(&obj, "rate", 12.0)?,
             max_age: positive(&obj, "max_age", 1.0)?,
             neighbours: parse_neighbours(obj.get("neighbours"))?,
+            robot,
         })
     }
 }
@@ -175,5 +181,27 @@ mod tests {
         assert!(AgentSpec::from_json(&bad).unwrap_err().contains("neighbours"));
         let good = GOOD.replace("\"steps\":10", "\"steps\":10,\"neighbours\":[[4,2.5,3]]");
         assert_eq!(AgentSpec::from_json(&good).unwrap().neighbours, vec![(4, 2.5, 3.0)]);
+    }
+
+    #[test]
+    fn robot_models() {
+        use crate::robot::Kind;
+        assert_eq!(AgentSpec::from_json(GOOD).unwrap().robot.kind, Kind::Point);
+        let with = |r: &str| GOOD.replace("\"steps\":10", &format!("\"steps\":10,\"robot\":{r}"));
+        let s = AgentSpec::from_json(&with(r#"{"kind":"unicycle","radius":0.3}"#)).unwrap();
+        assert_eq!((s.robot.kind, s.robot.radius, s.robot.v_max), (Kind::Unicycle, 0.3, 0.86));
+        for (bad, names) in [
+            (r#"{"kind":"tank"}"#, "robot.kind"),
+            (r#"{"kind":"unicycle","radius":-1}"#, "robot.radius"),
+            (r#"{"kind":"unicycle","radius":0}"#, "robot.radius"),
+            (r#"{"kind":"holonomic","a_max":0}"#, "robot.a_max"),
+            (r#"{"kind":"unicycle","v_max":1e400}"#, "robot.v_max"),
+            (r#"{"kind":"unicycle","v_max":5}"#, "robot.v_max"),
+            (r#"{"kind":"unicycle","wheels":2}"#, "robot.\"wheels\""),
+            ("3", "robot must be an object"),
+        ] {
+            let e = AgentSpec::from_json(&with(bad)).unwrap_err();
+            assert!(e.contains(names), "{bad}: {e}");
+        }
     }
 }

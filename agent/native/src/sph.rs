@@ -7,7 +7,10 @@
 
 use std::f64::consts::PI;
 
-/// State layout (agent/sph/particle.py): position, velocity, the lagged rho/p/stress, frozen flag.
+use crate::robot::{self, Kind, Robot};
+
+/// State layout (agent/sph/particle.py): position, velocity, the lagged rho/p/stress, frozen flag, a robot's
+/// heading and forward speed (robot.rs).
 pub const X: usize = 0;
 pub const Y: usize = 1;
 pub const VX: usize = 2;
@@ -18,7 +21,9 @@ pub const SXX: usize = 6;
 pub const SXY: usize = 7;
 pub const SYY: usize = 8;
 pub const FROZEN: usize = 9;
-pub const NFIELDS: usize = 10;
+pub const HEADING: usize = 10;
+pub const SPEED: usize = 11;
+pub const NFIELDS: usize = 12;
 
 pub type State = [f64; NFIELDS];
 
@@ -91,13 +96,14 @@ impl Default for Control {
     }
 }
 
-pub fn initial_state(x: f64, y: f64, vx: f64, vy: f64, params: &Params) -> State {
+pub fn initial_state(x: f64, y: f64, vx: f64, vy: f64, params: &Params, robot: &Robot) -> State {
     let mut s = [0.0; NFIELDS];
     s[X] = x;
     s[Y] = y;
     s[VX] = vx;
     s[VY] = vy;
     s[RHO] = params.rho0;
+    (s[HEADING], s[SPEED]) = robot::initial_pose(vx, vy, robot);
     s
 }
 
@@ -141,8 +147,9 @@ fn body_force(x: f64, y: f64, c: &Control) -> (f64, f64) {
     (magnitude * ex / safe, magnitude * ey / safe)
 }
 
-/// Next state of one particle (particle.py: step_particle). `neighbours` sorted by id, self excluded.
-pub fn step_particle(own: &State, neighbours: &[State], control: &Control, params: &Params) -> State {
+/// Next state of one particle (particle.py: step_particle). `neighbours` sorted by id, self excluded; a
+/// robot takes the SPH velocity update as its desired velocity (robot.rs).
+pub fn step_particle(own: &State, neighbours: &[State], control: &Control, params: &Params, robot: &Robot) -> State {
     if own[FROZEN] != 0.0 {
         return *own;
     }
@@ -188,15 +195,41 @@ pub fn step_particle(own: &State, neighbours: &[State], control: &Control, param
         eyy += (2.0 / 3.0) * w * (2.0 * dv * dwdy - du * dwdx);
     }
     let (fx, fy) = body_force(own[X], own[Y], control);
-    let acc_x = ax + fx + control.push_x - params.drag * own[VX];
-    let acc_y = ay + fy + control.push_y - params.drag * own[VY];
+    let mut acc_x = ax + fx + control.push_x - params.drag * own[VX];
+    let mut acc_y = ay + fy + control.push_y - params.drag * own[VY];
+    if robot.kind != Kind::Point {
+        // robots keep their bodies apart (robot.py: contact_acceleration), summed in neighbour order
+        let (cx, cy) = robot::body_centre(own[X], own[Y], own[HEADING], robot);
+        let r0 = robot::CONTACT_MARGIN * 2.0 * robot.radius;
+        let strength = robot.v_max * robot.v_max;
+        let (mut tx, mut ty) = (0.0f64, 0.0f64);
+        for nb in interacting(own, neighbours, params) {
+            let (nx, ny) = robot::body_centre(nb[X], nb[Y], nb[HEADING], robot);
+            let (px, py) = robot::contact_term(cx - nx, cy - ny, r0, strength);
+            tx += px;
+            ty += py;
+        }
+        acc_x += tx;
+        acc_y += ty;
+    }
 
     let mut new = *own;
     new[VX] = own[VX] + params.dt * acc_x;
     new[VY] = own[VY] + params.dt * acc_y;
-    cap_speed(&mut new, params);
-    new[X] = own[X] + params.dt * new[VX];
-    new[Y] = own[Y] + params.dt * new[VY];
+    if robot.kind == Kind::Unicycle {
+        let moved =
+            robot::unicycle_step(own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt);
+        for (k, v) in [X, Y, VX, VY, HEADING, SPEED].into_iter().zip(moved) {
+            new[k] = v;
+        }
+    } else {
+        if robot.kind == Kind::Holonomic {
+            (new[VX], new[VY]) = robot::holonomic_velocity(own[VX], own[VY], new[VX], new[VY], robot, params.dt);
+        }
+        cap_speed(&mut new, params);
+        new[X] = own[X] + params.dt * new[VX];
+        new[Y] = own[Y] + params.dt * new[VY];
+    }
     apply_border(&mut new, params);
 
     new[RHO] = rho;
@@ -206,7 +239,7 @@ pub fn step_particle(own: &State, neighbours: &[State], control: &Control, param
     new[SXY] = control.mu * exy;
     new[SYY] = control.mu * eyy;
     if new[FROZEN] != 0.0 {
-        for k in [VX, VY, P, SXX, SXY, SYY] {
+        for k in [VX, VY, P, SXX, SXY, SYY, SPEED] {
             new[k] = 0.0;
         }
     }
@@ -249,8 +282,8 @@ mod tests {
     #[test]
     fn lone_particle_moves_ballistically() {
         let p = Params::default();
-        let own = initial_state(10.0, 10.0, 1.0, 0.0, &p);
-        let next = step_particle(&own, &[], &Control::default(), &p);
+        let own = initial_state(10.0, 10.0, 1.0, 0.0, &p, &Robot::default());
+        let next = step_particle(&own, &[], &Control::default(), &p, &Robot::default());
         assert_eq!(next[X], 10.0 + 0.01 * 1.0);
         assert_eq!(next[RHO], 1.0 / PI);
     }
@@ -258,10 +291,11 @@ mod tests {
     #[test]
     fn pair_forces_are_antisymmetric() {
         let p = Params::default();
-        let a = initial_state(10.0, 10.0, 0.5, 0.0, &p);
-        let b = initial_state(10.8, 10.3, -0.2, 0.1, &p);
-        let na = step_particle(&a, &[b], &Control::default(), &p);
-        let nb = step_particle(&b, &[a], &Control::default(), &p);
+        let pt = Robot::default();
+        let a = initial_state(10.0, 10.0, 0.5, 0.0, &p, &pt);
+        let b = initial_state(10.8, 10.3, -0.2, 0.1, &p, &pt);
+        let na = step_particle(&a, &[b], &Control::default(), &p, &pt);
+        let nb = step_particle(&b, &[a], &Control::default(), &p, &pt);
         let momentum = (na[VX] - a[VX]) + (nb[VX] - b[VX]);
         assert!(momentum.abs() < 1e-15);
     }

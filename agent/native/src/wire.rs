@@ -1,10 +1,10 @@
-//! Binary state record exchanged between agents (wire format v1): a port of agent/protocol/wire.py.
+//! Binary state record exchanged between agents (wire format v2): a port of agent/protocol/wire.py.
 //!
-//! Layout, little-endian, 88 bytes (docs/protocol.md):
+//! Layout, little-endian, 104 bytes (docs/protocol.md):
 //!
 //! ```text
 //! offset  type     field
-//! 0       u8       version (= 1)
+//! 0       u8       version (= 2)
 //! 1       u8       kind (= 1, state)
 //! 2       u16      flags (bit 0: frozen, the particle left the domain)
 //! 4       u32      agent id
@@ -12,16 +12,21 @@
 //! 12      u16      particle class (from the gesture command; 0 if none)
 //! 14      u16      reserved (0)
 //! 16      9 x f64  x, y, vx, vy, rho, p, sxx, sxy, syy
+//! 88      f64      heading [rad] in [-pi, pi] (a unicycle's; 0 otherwise)
+//! 96      f64      forward speed [m/s] (a unicycle's; 0 otherwise)
 //! ```
 //!
 //! Records come from the network and are untrusted: `decode_state` checks them in the order wire.py does,
-//! so both implementations count the same rejection reason for the same bytes.
+//! so both implementations count the same rejection reason for the same bytes. The version byte first: a v1
+//! record (88 bytes, no pose) is refused as "version", whatever its length.
 
-use crate::sph::{FROZEN, NFIELDS, RHO};
+use std::f64::consts::PI;
 
-pub const VERSION: u8 = 1;
+use crate::sph::{FROZEN, HEADING, NFIELDS, RHO, SPEED};
+
+pub const VERSION: u8 = 2;
 pub const KIND_STATE: u8 = 1;
-pub const STATE_SIZE: usize = 88;
+pub const STATE_SIZE: usize = 104;
 pub const MAX_ID: u32 = (1 << 31) - 1;
 /// Larger magnitudes are garbage, not physics.
 pub const MAX_ABS: f64 = 1e12;
@@ -31,6 +36,8 @@ pub const REJECT_VERSION: &str = "version";
 pub const REJECT_VALUE: &str = "value";
 
 const FLOATS_AT: usize = 16;
+/// Where the wire's 11 floats go in the state: the 9 SPH values, then heading and speed (FROZEN is in flags).
+const WIRE_FIELDS: [usize; 11] = [0, 1, 2, 3, 4, 5, 6, 7, 8, HEADING, SPEED];
 
 /// A decoded record: `values` is the full state, its FROZEN field 0.0/1.0 from flags bit 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,9 +58,9 @@ pub fn encode_state(id: u32, step: u32, state: &[f64; NFIELDS], class: u16) -> [
     out[8..12].copy_from_slice(&step.to_le_bytes());
     out[12..14].copy_from_slice(&class.to_le_bytes());
     // 14..16 reserved, left 0
-    for (k, v) in state[..FROZEN].iter().enumerate() {
+    for (k, &field) in WIRE_FIELDS.iter().enumerate() {
         let at = FLOATS_AT + 8 * k;
-        out[at..at + 8].copy_from_slice(&v.to_le_bytes());
+        out[at..at + 8].copy_from_slice(&state[field].to_le_bytes());
     }
     out
 }
@@ -67,10 +74,13 @@ fn u32_at(data: &[u8], at: usize) -> u32 {
 }
 
 pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
+    if data.first() != Some(&VERSION) {
+        return Err(REJECT_VERSION);
+    }
     if data.len() != STATE_SIZE {
         return Err(REJECT_LENGTH);
     }
-    if data[0] != VERSION || data[1] != KIND_STATE {
+    if data[1] != KIND_STATE {
         return Err(REJECT_VERSION);
     }
     let flags = u16_at(data, 2);
@@ -79,16 +89,20 @@ pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
         return Err(REJECT_VALUE);
     }
     let mut values = [0.0; NFIELDS];
-    for (k, v) in values[..FROZEN].iter_mut().enumerate() {
+    for (k, &field) in WIRE_FIELDS.iter().enumerate() {
         let at = FLOATS_AT + 8 * k;
-        *v = f64::from_le_bytes(data[at..at + 8].try_into().expect("8 bytes"));
+        let v = f64::from_le_bytes(data[at..at + 8].try_into().expect("8 bytes"));
         // Written as a negated range test so NaN fails it too, as in Python.
-        if !(-MAX_ABS..=MAX_ABS).contains(v) {
+        if !(-MAX_ABS..=MAX_ABS).contains(&v) {
             return Err(REJECT_VALUE);
         }
+        values[field] = v;
     }
     if values[RHO] <= 0.0 {
         return Err(REJECT_VALUE); // a density must be positive
+    }
+    if !(-PI..=PI).contains(&values[HEADING]) {
+        return Err(REJECT_VALUE); // a heading is an angle in [-pi, pi]
     }
     values[FROZEN] = f64::from(flags);
     Ok(StateRecord { id, step: u32_at(data, 8), class: u16_at(data, 12), values })
@@ -102,10 +116,13 @@ pub fn peek_id_step(data: &[u8]) -> Option<(u32, u32)> {
 /// (id, x, y) of a state record for routing it by position (the router's relay), or the reason decode_state
 /// gives for its header and position (agent/protocol/wire.py: peek_id_position). Receivers decode it in full.
 pub fn peek_id_position(data: &[u8]) -> Result<(u32, f64, f64), &'static str> {
+    if data.first() != Some(&VERSION) {
+        return Err(REJECT_VERSION);
+    }
     if data.len() != STATE_SIZE {
         return Err(REJECT_LENGTH);
     }
-    if data[0] != VERSION || data[1] != KIND_STATE {
+    if data[1] != KIND_STATE {
         return Err(REJECT_VERSION);
     }
     let x = f64::from_le_bytes(data[FLOATS_AT..FLOATS_AT + 8].try_into().expect("8 bytes"));
@@ -121,7 +138,7 @@ mod tests {
     use super::*;
 
     fn state() -> [f64; NFIELDS] {
-        [1.5, -2.0, 0.25, 0.0, 0.85, 3.0, 0.1, -0.2, 0.3, 0.0]
+        [1.5, -2.0, 0.25, 0.0, 0.85, 3.0, 0.1, -0.2, 0.3, 0.0, -1.25, 0.5]
     }
 
     #[test]
@@ -132,7 +149,7 @@ mod tests {
         s[FROZEN] = 1.0;
         assert_eq!(decode_state(&encode_state(7, 42, &s, 0)).unwrap().values[FROZEN], 1.0);
         assert_eq!(peek_id_step(&encode_state(7, 42, &s, 0)), Some((7, 42)));
-        assert_eq!(peek_id_step(&[0; 87]), None);
+        assert_eq!(peek_id_step(&[0; 103]), None);
     }
 
     #[test]
@@ -140,8 +157,15 @@ mod tests {
         let good = encode_state(1, 2, &state(), 0);
         assert_eq!(decode_state(&good[..87]), Err("length"));
         let mut b = good;
-        b[0] = 2;
+        b[0] = 1;
+        assert_eq!(decode_state(&b[..88]), Err("version")); // a v1 record
+        assert_eq!(decode_state(&[]), Err("version"));
+        let mut b = good;
+        b[0] = 3;
         assert_eq!(decode_state(&b), Err("version"));
+        let mut s = state();
+        s[HEADING] = 3.2;
+        assert_eq!(decode_state(&encode_state(1, 2, &s, 0)), Err("value"));
         let mut b = good;
         b[2] = 2;
         assert_eq!(decode_state(&b), Err("value"));

@@ -14,7 +14,7 @@ impl Agent {
             None => self.spec.control,
         };
         self.counters.neighbours += sph::interacting(&self.state, neighbours, &self.params).count() as u64;
-        self.state = sph::step_particle(&self.state, neighbours, &control, &self.params);
+        self.state = sph::step_particle(&self.state, neighbours, &control, &self.params, &self.spec.robot);
         self.step += 1;
         self.last_step_done = Instant::now();
         if let Err(e) = self.update_subscriptions() {

@@ -2,11 +2,13 @@
 
 use serde_json::{Map, Value};
 
+use crate::robot::{Kind, Robot};
 use crate::sph::{Control, Params};
 
 const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
 const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
+const ROBOT_FIELDS: &[&str] = &["kind", "radius", "v_max", "a_max", "omega_max", "offset"];
 
 pub(super) fn err<T>(msg: String) -> Result<T, String> {
     Err(format!("agent spec: {msg}"))
@@ -141,4 +143,47 @@ pub(super) fn parse_control(v: Option<&Value>) -> Result<Control, String> {
         }
     }
     Ok(c)
+}
+
+/// `robot` (agent/sph/robot.py: RobotModel and its checks): kind point | holonomic | unicycle, a radius >= 0
+/// (> 0 for a robot), positive finite limits, no faster than the fluid's `v_max` (the neighbour protocol's bound).
+pub(super) fn parse_robot(v: Option<&Value>, fluid_v_max: f64) -> Result<Robot, String> {
+    let mut r = Robot::default();
+    let obj = match v {
+        None => return Ok(r),
+        Some(Value::Object(o)) => o,
+        Some(other) => return err(format!("robot must be an object, got {other}")),
+    };
+    only(obj, ROBOT_FIELDS, "robot.")?;
+    for (name, value) in obj {
+        if name == "kind" {
+            r.kind = match value.as_str() {
+                Some("point") => Kind::Point,
+                Some("holonomic") => Kind::Holonomic,
+                Some("unicycle") => Kind::Unicycle,
+                _ => return err(format!("robot.kind must be one of ('point', 'holonomic', 'unicycle'), got {value}")),
+            };
+            continue;
+        }
+        let x = match number(value) {
+            Some(x) if x > 0.0 || (name == "radius" && x >= 0.0) => x,
+            _ => return err(format!("robot.{name} must be a finite number > 0, got {value}")),
+        };
+        match name.as_str() {
+            "radius" => r.radius = x,
+            "v_max" => r.v_max = x,
+            "a_max" => r.a_max = x,
+            "omega_max" => r.omega_max = x,
+            "offset" => r.offset = x,
+            _ => {}
+        }
+    }
+    if r.kind != Kind::Point && r.radius <= 0.0 {
+        return err(format!("robot.radius must be > 0 for a {:?} robot, got {}", r.kind, r.radius));
+    }
+    if r.kind != Kind::Point && r.top_particle_speed() > fluid_v_max {
+        return err(format!("robot.v_max: the robot's point can move {} m/s, more than the fluid's v_max {fluid_v_max} m/s",
+                           r.top_particle_speed()));
+    }
+    Ok(r)
 }
