@@ -19,8 +19,10 @@ class build_ext_with_cargo(build_ext):  # setuptools-rust's build_ext builds on 
         if shutil.which("cargo") is None and (RUSTUP_BIN / "cargo").is_file():
             os.environ["PATH"] = f"{RUSTUP_BIN}{os.pathsep}{os.environ.get('PATH', '')}"
         if shutil.which("cargo") is None or shutil.which("rustc") is None:
-            raise SystemExit("fluidswarm: building its agent and router programs needs a Rust toolchain "
-                             "(cargo and rustc on PATH): install one from https://rustup.rs, then pip install again")
+            raise SystemExit(
+                "fluidswarm: building its agent and router programs needs a Rust toolchain "
+                "(cargo and rustc on PATH): install one from https://rustup.rs, then pip install again"
+            )
         super().run()
 
 

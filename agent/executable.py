@@ -70,11 +70,15 @@ def _find(name: str, what: str) -> str:
         if _runnable(path):
             return str(path)
     if NATIVE_DIR.is_dir():  # a source checkout: cargo builds it
-        raise AgentNotBuilt(f"{what} program {built} is not built: run `make install` "
-                            f"(cargo build --release --locked --manifest-path {NATIVE_DIR / 'Cargo.toml'})")
-    raise AgentNotBuilt(f"{what} program {exe} is not installed (not in {candidates[0].parent}): reinstall "
-                        f"fluidswarm with a Rust toolchain on PATH (https://rustup.rs), `pip install "
-                        f"--force-reinstall fluidswarm`, or set ${ENV_OVERRIDE if name == AGENT else ROUTER_ENV_OVERRIDE}")
+        raise AgentNotBuilt(
+            f"{what} program {built} is not built: run `make install` "
+            f"(cargo build --release --locked --manifest-path {NATIVE_DIR / 'Cargo.toml'})"
+        )
+    raise AgentNotBuilt(
+        f"{what} program {exe} is not installed (not in {candidates[0].parent}): reinstall "
+        f"fluidswarm with a Rust toolchain on PATH (https://rustup.rs), `pip install "
+        f"--force-reinstall fluidswarm`, or set ${ENV_OVERRIDE if name == AGENT else ROUTER_ENV_OVERRIDE}"
+    )
 
 
 def _override(env: str, what: str) -> str | None:
@@ -101,7 +105,9 @@ def router_executable() -> str:
     if agent:
         sibling = Path(agent).with_name(ROUTER + (sysconfig.get_config_var("EXE") or ""))
         if not _runnable(sibling):
-            raise AgentNotBuilt(f"router program {sibling} (next to ${ENV_OVERRIDE}) is not built: "
-                                f"build it there, or set ${ROUTER_ENV_OVERRIDE}")
+            raise AgentNotBuilt(
+                f"router program {sibling} (next to ${ENV_OVERRIDE}) is not built: "
+                f"build it there, or set ${ROUTER_ENV_OVERRIDE}"
+            )
         return str(sibling)
     return _find(ROUTER, "router")

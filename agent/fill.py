@@ -15,7 +15,7 @@ native swarm equals the reference drivers to rounding (tests/vectors/fill.json c
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 Ring = Sequence[tuple[float, float]]
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 
 class HelperLost(RuntimeError):
@@ -58,8 +58,9 @@ class Helpers:
     watched: list[Watched] = field(default_factory=list)
     lost: HelperLost | None = None  # the first loss seen (raised again by every later check)
 
-    def watch(self, name: str, proc: subprocess.Popen, why: Callable[[], str] = lambda: "",
-              fine_exit: bool = False) -> None:
+    def watch(
+        self, name: str, proc: subprocess.Popen, why: Callable[[], str] = lambda: "", fine_exit: bool = False
+    ) -> None:
         self.watched.append(Watched(name, proc, why, fine_exit))
 
     def expect_loss(self, proc: subprocess.Popen) -> None:

@@ -26,5 +26,6 @@ def initial_neighbours(ids, positions: np.ndarray, params: SPHParams) -> dict[in
     ids = [int(i) for i in ids]
     xy = np.asarray(positions, dtype=float).reshape(len(ids), 2)
     near = cKDTree(xy).query_ball_point(xy, reach(params)) if ids else []
-    return {i: [[ids[k], float(xy[k, 0]), float(xy[k, 1])] for k in sorted(near[n]) if k != n]
-            for n, i in enumerate(ids)}
+    return {
+        i: [[ids[k], float(xy[k, 0]), float(xy[k, 1])] for k in sorted(near[n]) if k != n] for n, i in enumerate(ids)
+    }

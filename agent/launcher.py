@@ -20,8 +20,8 @@ from __future__ import annotations
 import secrets
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -78,8 +78,10 @@ def check_swarm_size(agents: int) -> None:
     auth it provisions ids 0..AGENT_CAPACITY-1 only (docs/security.md), and every id needs a key (docs/protocol.md)."""
     bound = keys.MAX_AGENTS if access_level() == "none" else AGENT_CAPACITY
     if agents > bound:
-        raise UserError(f"--agents {agents}: an embedded router knows agent ids 0..{bound - 1} only (at most "
-                        f"{bound} agents on one host; split a larger swarm over hosts, docs/multi-host.md)")
+        raise UserError(
+            f"--agents {agents}: an embedded router knows agent ids 0..{bound - 1} only (at most "
+            f"{bound} agents on one host; split a larger swarm over hosts, docs/multi-host.md)"
+        )
 
 
 class Launcher:
@@ -90,9 +92,19 @@ class Launcher:
     [s]: the neighbour timeout given to every agent; commands: the agents follow signed gesture commands
     (they get the key); user/password/auth_file: credentials for a router elsewhere (docs/security.md)."""
 
-    def __init__(self, run: str | None = None, connect: str | None = None, listen: str | None = None,
-                 secret: str | None = None, agent_timeout: float = NEIGHBOUR_TIMEOUT.default, quiet: bool = True,
-                 user: str = "", password: str = "", auth_file: str = "", commands: bool = False):
+    def __init__(
+        self,
+        run: str | None = None,
+        connect: str | None = None,
+        listen: str | None = None,
+        secret: str | None = None,
+        agent_timeout: float = NEIGHBOUR_TIMEOUT.default,
+        quiet: bool = True,
+        user: str = "",
+        password: str = "",
+        auth_file: str = "",
+        commands: bool = False,
+    ):
         self.run = run or f"run-{uuid.uuid4().hex[:8]}"
         if not keys.valid_run_name(self.run):
             raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
@@ -108,14 +120,16 @@ class Launcher:
             proc = self.router.process.proc
             self.helpers.watch(f"embedded router (fluidswarm-router, pid {proc.pid})", proc)
         try:
-            self.supervisor = Supervisor(self.swarm, self.access.env_for_agent, self.secret if commands else "", quiet,
-                                         health=self.helpers.check)
+            self.supervisor = Supervisor(
+                self.swarm, self.access.env_for_agent, self.secret if commands else "", quiet, health=self.helpers.check
+            )
         except BaseException:
             self.router.close()
             raise
         self.relay = self.router.relay  # under per-process rights: agents' id keys -> cell keys
-        self.recorder = RecorderProcess(self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet,
-                                        self.access.state_key_ids)
+        self.recorder = RecorderProcess(
+            self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet, self.access.state_key_ids
+        )
         self.closed = False
 
     # the run's progress (agent/pacing.py)
@@ -146,8 +160,16 @@ class Launcher:
         self.pacer.end_at(step)
 
     # the recorder (agent/recorder_process.py)
-    def start_recorder(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "",
-                       image: str = "", live: str = ""):
+    def start_recorder(
+        self,
+        path: str,
+        metadata: dict,
+        dt: float,
+        timeout: float = 30.0,
+        target: str = "",
+        image: str = "",
+        live: str = "",
+    ):
         proc = self.recorder.start(path, metadata, dt, timeout, target, image, live)
         self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
         return proc
@@ -180,9 +202,18 @@ class Launcher:
     def spec_for(self, agent_id: int, state: np.ndarray, control: Control, params, steps: int, **extra) -> AgentSpec:
         p = params.as_dict()
         p["domain"] = list(p["domain"])
-        return AgentSpec(run=self.run, id=int(agent_id), connect=[self.agent_endpoint], steps=int(steps),
-                         initial=[float(v) for v in state[:4]], control=asdict(control), params=p,
-                         timeout=self.agent_timeout, state_key_ids=self.access.state_key_ids, **extra)
+        return AgentSpec(
+            run=self.run,
+            id=int(agent_id),
+            connect=[self.agent_endpoint],
+            steps=int(steps),
+            initial=[float(v) for v in state[:4]],
+            control=asdict(control),
+            params=p,
+            timeout=self.agent_timeout,
+            state_key_ids=self.access.state_key_ids,
+            **extra,
+        )
 
     def spawn(self, spec: AgentSpec):
         if self.relay is not None:
@@ -232,10 +263,20 @@ class Launcher:
         self.close()
 
 
-def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_timeout: float | None = None,
-              run_timeout: float | None = None, on_started: Callable[[Launcher], None] | None = None,
-              progress: Callable[[], None] | None = None, ids=None, swarm_ids=None, per_agent: dict | None = None,
-              **spec_extra) -> SwarmResult:
+def run_swarm(
+    setup,
+    steps: int,
+    *,
+    launcher: Launcher | None = None,
+    startup_timeout: float | None = None,
+    run_timeout: float | None = None,
+    on_started: Callable[[Launcher], None] | None = None,
+    progress: Callable[[], None] | None = None,
+    ids=None,
+    swarm_ids=None,
+    per_agent: dict | None = None,
+    **spec_extra,
+) -> SwarmResult:
     """Run `setup` (agent.sph.setups.Setup) through one agent process per particle, lockstep, `steps` steps.
 
     With a `launcher` given, the caller owns it (and closes it); otherwise one is made and closed here.
@@ -258,7 +299,12 @@ def run_swarm(setup, steps: int, *, launcher: Launcher | None = None, startup_ti
         near = initial_neighbours(everyone, [setup.states[index[i]][:2] for i in everyone], setup.params)
         for i in chosen:
             k = index[i]
-            extra = {**spec_extra, "neighbours": near[i], "robot": setup.robot.as_dict(), **(per_agent or {}).get(i, {})}
+            extra = {
+                **spec_extra,
+                "neighbours": near[i],
+                "robot": setup.robot.as_dict(),
+                **(per_agent or {}).get(i, {}),
+            }
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
         launcher.track_progress()
         launcher.wait_alive(everyone, startup_budget)

@@ -53,8 +53,9 @@ class Pacer:
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
-        self._states = self.session.declare_subscriber(keys.state_observed_expr(self.run, self.id_keys),
-                                                     zenoh.handlers.RingChannel(1 << 16))
+        self._states = self.session.declare_subscriber(
+            keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
+        )
         threading.Thread(target=self._clock, daemon=True).start()
 
     def stop(self) -> None:
@@ -101,8 +102,7 @@ class Pacer:
             self.newest[agent_id] = data
         if step not in self.step_times and step <= self.max_step + AHEAD:
             self.step_times[step] = now
-            if step > self.max_step:
-                self.max_step = step
+            self.max_step = max(self.max_step, step)
 
     def _clock(self) -> None:
         """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
@@ -134,8 +134,7 @@ class Pacer:
             # other agent's token: that was N² declarations at start-up (70 s at N = 1000, native.md).
             for j in gone:
                 try:
-                    self.session.put(*ctl_message(self.run, Gone(j)),
-                                     congestion_control=zenoh.CongestionControl.BLOCK)
+                    self.session.put(*ctl_message(self.run, Gone(j)), congestion_control=zenoh.CongestionControl.BLOCK)
                 except Exception:  # the session is closing
                     return
             steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
@@ -148,7 +147,9 @@ class Pacer:
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
                 said, said_at = last, now
                 try:
-                    self.session.put(*ctl_message(self.run, Clock(last)), congestion_control=zenoh.CongestionControl.BLOCK)
+                    self.session.put(
+                        *ctl_message(self.run, Clock(last)), congestion_control=zenoh.CongestionControl.BLOCK
+                    )
                     if self.end_step is not None:
                         self.end_at(self.end_step)
                 except Exception:  # the session is closing
@@ -173,5 +174,4 @@ class Pacer:
         """Every agent finishes at `step` (or its own last step if that comes first): ctl/end, said again
         with the clock so that no agent misses it."""
         self.end_step = int(step)
-        self.session.put(*ctl_message(self.run, End(self.end_step)),
-                         congestion_control=zenoh.CongestionControl.BLOCK)
+        self.session.put(*ctl_message(self.run, End(self.end_step)), congestion_control=zenoh.CongestionControl.BLOCK)

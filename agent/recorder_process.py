@@ -25,8 +25,16 @@ class RecorderProcess:
         self.proc: subprocess.Popen | None = None
         self._stderr = None  # its error output (a file, never a pipe it could fill), for last_words()
 
-    def start(self, path: str, metadata: dict, dt: float, timeout: float = 30.0, target: str = "", image: str = "",
-              live: str = "") -> subprocess.Popen:
+    def start(
+        self,
+        path: str,
+        metadata: dict,
+        dt: float,
+        timeout: float = 30.0,
+        target: str = "",
+        image: str = "",
+        live: str = "",
+    ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket."""
@@ -35,26 +43,49 @@ class RecorderProcess:
         meta.setdefault("run", self.run)
         out = subprocess.DEVNULL if self.quiet else None
         self._stderr = tempfile.TemporaryFile("w+")
-        cmd = [sys.executable, "-m", "fluidswarm.recording.recorder", "--connect", self.endpoint, "--run", self.run,
-               "--out", str(path), "--dt", repr(float(dt)), "--metadata", json.dumps(meta),
-               "--state-keys", "id" if self.id_keys else "cell"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "fluidswarm.recording.recorder",
+            "--connect",
+            self.endpoint,
+            "--run",
+            self.run,
+            "--out",
+            str(path),
+            "--dt",
+            repr(float(dt)),
+            "--metadata",
+            json.dumps(meta),
+            "--state-keys",
+            "id" if self.id_keys else "cell",
+        ]
         if target:
             cmd += ["--target", target]
         if image:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
-        self.proc = subprocess.Popen(cmd, stdout=out, stderr=self._stderr, stdin=subprocess.DEVNULL,
-                                     preexec_fn=die_with_parent, env=dict(os.environ, **self.env))
+        self.proc = subprocess.Popen(
+            cmd,
+            stdout=out,
+            stderr=self._stderr,
+            stdin=subprocess.DEVNULL,
+            preexec_fn=die_with_parent,
+            env=dict(os.environ, **self.env),
+        )
         deadline = time.monotonic() + timeout
         key = f"{keys.PREFIX}/{self.run}/recorder"
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 why = self.last_words()
-                raise RuntimeError(f"recorder exited at start-up (code {self.proc.returncode})"
-                                   + (f": {why}" if why else ""))
+                raise RuntimeError(
+                    f"recorder exited at start-up (code {self.proc.returncode})" + (f": {why}" if why else "")
+                )
             # its own token's key: a token on a wildcard key (`fluidswarm/**`) answers this query too
-            if any(r.ok is not None and str(r.ok.key_expr) == key for r in self.session.liveliness().get(key, timeout=1.0)):
+            if any(
+                r.ok is not None and str(r.ok.key_expr) == key for r in self.session.liveliness().get(key, timeout=1.0)
+            ):
                 return self.proc
             time.sleep(0.1)
         raise TimeoutError(f"recorder not ready after {timeout:.0f} s")

@@ -48,8 +48,10 @@ class StateRelay:
         if self.cell is None:
             self.cell = cell
         elif cell != self.cell:
-            raise ValueError(f"agent {agent_id}: smoothing length {cell} differs from the run's {self.cell} "
-                             "(agents hear each other on cells of one size)")
+            raise ValueError(
+                f"agent {agent_id}: smoothing length {cell} differs from the run's {self.cell} "
+                "(agents hear each other on cells of one size)"
+            )
         self._ids[keys.state_key(self.run, agent_id)] = agent_id
 
     def _relay(self, sample) -> None:
@@ -75,8 +77,9 @@ class StateRelay:
             cell_key = self._cell_keys[c] = self.session.declare_keyexpr(keys.cell_key(self.run, *c))
         # REMOTE: the launcher's own observers (pacer) already took the state from its id key. BLOCK, as the
         # agents put their states: a neighbour's full queue delays a state, never drops it.
-        self.session.put(cell_key, data, congestion_control=zenoh.CongestionControl.BLOCK,
-                         allowed_destination=zenoh.Locality.REMOTE)
+        self.session.put(
+            cell_key, data, congestion_control=zenoh.CongestionControl.BLOCK, allowed_destination=zenoh.Locality.REMOTE
+        )
 
     def _reject(self, reason: str) -> None:
         self.rejected[reason] = self.rejected.get(reason, 0) + 1

@@ -37,8 +37,15 @@ class RouterHost:
     connect; `access`: the credentials handed to each process; `session`: the launcher's own session;
     `relay`: the state relay under per-process rights (agent/relay.py's interface), None without them."""
 
-    def __init__(self, run: str, connect: str | None = None, listen: str | None = None, user: str = "",
-                 password: str = "", auth_file: str = ""):
+    def __init__(
+        self,
+        run: str,
+        connect: str | None = None,
+        listen: str | None = None,
+        user: str = "",
+        password: str = "",
+        auth_file: str = "",
+    ):
         self._socket_dir = None
         self.process: RouterProcess | None = None  # the compiled embedded router (per-process rights)
         if connect:
@@ -60,8 +67,9 @@ class RouterHost:
             if not connect and self.access.state_key_ids:
                 # Per-process rights: every state passes the relay, which runs inside a compiled router
                 # (agent/router_process.py); the launcher is its client.
-                self.process = RouterProcess(run, router_config_dict(
-                    listeners, dictionary_file=self.access.users_file, acl=self.access.acl))
+                self.process = RouterProcess(
+                    run, router_config_dict(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
+                )
                 conf = client_config([self.endpoint], *astuple(self.access.own))
             elif not connect:
                 conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)

@@ -45,9 +45,15 @@ class RouterProcess:
             with os.fdopen(fd, "w") as f:
                 json.dump(settings, f)
             errors = open(os.path.join(private, "stderr"), "w+")
-            self.proc = subprocess.Popen([router_executable(), run], env=dict(os.environ, **{CONFIG_ENV: path}),
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=errors, text=True,
-                                         bufsize=1)
+            self.proc = subprocess.Popen(
+                [router_executable(), run],
+                env=dict(os.environ, **{CONFIG_ENV: path}),
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=errors,
+                text=True,
+                bufsize=1,
+            )
             try:
                 # Bounded: a router stuck opening reads no stdin, so the launcher's end would not end it.
                 ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT)
@@ -56,9 +62,12 @@ class RouterProcess:
                     self._kill()
                     errors.seek(0)
                     why = errors.read().strip().splitlines()
-                    raise RouterFailed(why[-1] if why else
-                                       f"fluidswarm-router did not say ready within {START_TIMEOUT:g} s "
-                                       f"(exit code {self.proc.returncode})")
+                    raise RouterFailed(
+                        why[-1]
+                        if why
+                        else f"fluidswarm-router did not say ready within {START_TIMEOUT:g} s "
+                        f"(exit code {self.proc.returncode})"
+                    )
             except BaseException:  # also Ctrl-C while it opens: never left behind
                 self._kill()
                 raise

@@ -16,8 +16,8 @@ import signal
 import subprocess
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import zenoh
 
@@ -65,8 +65,14 @@ class Supervisor:
     """Starts agents with `env_for_agent(id)` (their credentials) and, with `secret`, the run's command key
     in their environment; `quiet`: their output goes nowhere."""
 
-    def __init__(self, swarm: Swarm, env_for_agent: Callable[[int], dict], secret: str = "", quiet: bool = True,
-                 health: Callable[[], None] = lambda: None):
+    def __init__(
+        self,
+        swarm: Swarm,
+        env_for_agent: Callable[[int], dict],
+        secret: str = "",
+        quiet: bool = True,
+        health: Callable[[], None] = lambda: None,
+    ):
         self.swarm, self.env_for_agent, self.secret, self.quiet = swarm, env_for_agent, secret, quiet
         # called at every wake-up of the waits below (<= 0.2 s apart): raises when a helper of the run (router,
         # recorder, coordinator) is lost, so no wait outlives it (agent/launcher.py: Launcher.check_helpers)
@@ -92,8 +98,9 @@ class Supervisor:
         # must not ask for it (they rely on close()).
         if threading.current_thread() is not threading.main_thread():
             env["FLUIDSWARM_NO_PDEATHSIG"] = "1"
-        proc = subprocess.Popen([self.program, "--spec", spec.to_json()], env=env,
-                                stdout=out, stderr=out, stdin=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            [self.program, "--spec", spec.to_json()], env=env, stdout=out, stderr=out, stdin=subprocess.DEVNULL
+        )
         self.swarm.procs[spec.id] = proc
         return proc
 
@@ -138,7 +145,9 @@ class Supervisor:
                 left = deadline - time.monotonic()
                 dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
                 if dead:
-                    raise RuntimeError(f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})")
+                    raise RuntimeError(
+                        f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})"
+                    )
                 if left <= 0:
                     missing = sorted(want - self.swarm.alive)
                     raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
@@ -148,8 +157,7 @@ class Supervisor:
         """The start signal (ctl/start) every waiting agent steps from."""
         # Block, not zenoh's default Drop: at N = 1000 the links are still full of liveliness declarations
         # when the swarm starts, and an agent that missed the one start message never stepped.
-        self.swarm.session.put(*ctl_message(self.swarm.run, Start()),
-                               congestion_control=zenoh.CongestionControl.BLOCK)
+        self.swarm.session.put(*ctl_message(self.swarm.run, Start()), congestion_control=zenoh.CongestionControl.BLOCK)
 
     def wait_finals(self, ids, timeout: float, progress: Callable[[], None] | None = None) -> None:
         """Until every agent in `ids` has reported or exited."""

@@ -34,12 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from coordinator.control.observe import Observation, observe
-from perception.tracking import BoxKalman, box_to_centre
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import build_command, transform_for
+from coordinator.control.observe import Observation, observe
 from perception.segmentation import SegmentationError
 from perception.stream import FrameStream, StreamEnded, StreamError
+from perception.tracking import BoxKalman, box_to_centre
 
 # observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
 CLIP = Path("camera.mp4")
@@ -203,9 +203,20 @@ def load_observation(path: Path) -> Observation:
         return Observation(str(z["kind"]), z["mask"].astype(bool), str(z["label"]), z["frame"], parts)
 
 
-def run_camera(source: str, stream_params, n_agents: int, controller: str, secret: bytes, pub, stop: threading.Event,
-               period: float, observations: Path | None, rule: ChangeRule = ChangeRule(), subject: str = "person",
-               started: threading.Event | None = None) -> None:
+def run_camera(
+    source: str,
+    stream_params,
+    n_agents: int,
+    controller: str,
+    secret: bytes,
+    pub,
+    stop: threading.Event,
+    period: float,
+    observations: Path | None,
+    rule: ChangeRule = ChangeRule(),
+    subject: str = "person",
+    started: threading.Event | None = None,
+) -> None:
     """Observe `source` until `stop` or the end of a video file, publishing signed commands on `pub`
     (republished every `period` s by a side thread, so late joiners get one while a frame is being read).
     A video file is held after its first command until `started` (the swarm runs), so that what it shows
@@ -215,19 +226,35 @@ def run_camera(source: str, stream_params, n_agents: int, controller: str, secre
         raise ValueError(f"subject must be one of {', '.join(SUBJECTS)}, got {subject!r}")
     log = EventLog(observations)
     try:
-        _observe_stream(source, stream_params, n_agents, controller, secret, pub, stop, period, observations,
-                        rule, subject, log, started)
+        _observe_stream(
+            source,
+            stream_params,
+            n_agents,
+            controller,
+            secret,
+            pub,
+            stop,
+            period,
+            observations,
+            rule,
+            subject,
+            log,
+            started,
+        )
     except StreamEnded as exc:
         if not getattr(exc, "is_file", False):
             raise
         log.write("end", frames=exc.frames)
         if not exc.commanded:
-            raise StreamError(f"camera {source}: the video ended after {exc.frames} frames without a "
-                              f"{exc.subject or 'hand or person'} seen") from None
+            raise StreamError(
+                f"camera {source}: the video ended after {exc.frames} frames without a "
+                f"{exc.subject or 'hand or person'} seen"
+            ) from None
 
 
-def _observe_stream(source, stream_params, n_agents, controller, secret, pub, stop, period, observations, rule,
-                    subject, log, started) -> None:
+def _observe_stream(
+    source, stream_params, n_agents, controller, secret, pub, stop, period, observations, rule, subject, log, started
+) -> None:
     current: list[bytes] = []
 
     def republish() -> None:
@@ -241,6 +268,7 @@ def _observe_stream(source, stream_params, n_agents, controller, secret, pub, st
     seq = 0
     observer = None
     with FrameStream(source, stream_params) as stream:
+
         def frames():
             try:
                 while not stop.is_set():

@@ -24,14 +24,18 @@ from pathlib import Path
 import zenoh
 
 from agent.protocol import keys
+from agent.protocol.command import parse_body
 from agent.protocol.ctl import Clock, decode_ctl
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
-from coordinator.control.imitation_setup import (
-    CONTROLLERS, DEFAULT_CONTROLLER, build_command, observations_for, transform_for,
-)
-from agent.protocol.command import parse_body
 from coordinator.camera import run_camera
+from coordinator.control.imitation_setup import (
+    CONTROLLERS,
+    DEFAULT_CONTROLLER,
+    build_command,
+    observations_for,
+    transform_for,
+)
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from perception.stream import StreamError, StreamParams
@@ -88,21 +92,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--connect", required=True)
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", help="image, folder of frames, or video")
-    ap.add_argument("--commands", help="JSON file [{\"first\": FRAME, \"body\": COMMAND BODY}, ...]: commands "
-                                       "built by the launching process from its own observation (no second perception)")
+    ap.add_argument(
+        "--commands",
+        help='JSON file [{"first": FRAME, "body": COMMAND BODY}, ...]: commands '
+        "built by the launching process from its own observation (no second perception)",
+    )
     ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
     ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
     ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
-    ap.add_argument("--subject", default="person", choices=["hand", "person", "auto"],
-                    help="camera: what it watches (auto: decided from the first frames)")
+    ap.add_argument(
+        "--subject",
+        default="person",
+        choices=["hand", "person", "auto"],
+        help="camera: what it watches (auto: decided from the first frames)",
+    )
     ap.add_argument("--observations", help="camera: folder for first.npz / latest.npz (the launcher reads them)")
     ap.add_argument("--agents", type=int, required=True)
     ap.add_argument("--controller", default=DEFAULT_CONTROLLER, choices=CONTROLLERS)
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
-    ap.add_argument("--frame-steps", type=int, default=0,
-                    help="show each frame of a sequence for this many swarm steps (the run's ctl/clock) instead")
+    ap.add_argument(
+        "--frame-steps",
+        type=int,
+        default=0,
+        help="show each frame of a sequence for this many swarm steps (the run's ctl/clock) instead",
+    )
     args = ap.parse_args(argv)
     secret_hex = os.environ.get("FLUIDSWARM_SECRET", "")
     try:
@@ -112,10 +127,17 @@ def main(argv: list[str] | None = None) -> int:
     if not secret:
         print("fluidswarm coordinator: error: FLUIDSWARM_SECRET (hex) must hold the run's command key", file=sys.stderr)
         return 2
-    if not keys.valid_run_name(args.run) or args.agents < 1 or args.period <= 0 or args.frame_steps < 0 \
-            or not args.frame_seconds > 0:
-        print("fluidswarm coordinator: error: bad --run, --agents, --period, --frame-steps or --frame-seconds",
-              file=sys.stderr)
+    if (
+        not keys.valid_run_name(args.run)
+        or args.agents < 1
+        or args.period <= 0
+        or args.frame_steps < 0
+        or not args.frame_seconds > 0
+    ):
+        print(
+            "fluidswarm coordinator: error: bad --run, --agents, --period, --frame-steps or --frame-seconds",
+            file=sys.stderr,
+        )
         return 2
     if sum(bool(a) for a in (args.input, args.camera, args.commands)) != 1:
         print("fluidswarm coordinator: error: give --input, --camera or --commands (one of them)", file=sys.stderr)
@@ -124,8 +146,11 @@ def main(argv: list[str] | None = None) -> int:
         return _camera(args, secret)
 
     try:
-        commands = (_load_commands(args.commands) if args.commands
-                    else frame_commands(args.input, args.agents, args.controller, args.frame))
+        commands = (
+            _load_commands(args.commands)
+            if args.commands
+            else frame_commands(args.input, args.agents, args.controller, args.frame)
+        )
     except (InputError, SegmentationError) as exc:
         print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
         return 1
@@ -194,8 +219,19 @@ def _camera(args, secret: bytes) -> int:
         with _command_channel(args) as (session, pub, stop):
             clock = SwarmClock(args.run)  # a video file is held until the swarm steps (its first clock)
             session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
-            run_camera(args.camera, params, args.agents, args.controller, secret, pub, stop, args.period, observations,
-                       subject=args.subject, started=clock.started)
+            run_camera(
+                args.camera,
+                params,
+                args.agents,
+                args.controller,
+                secret,
+                pub,
+                stop,
+                args.period,
+                observations,
+                subject=args.subject,
+                started=clock.started,
+            )
     except StreamError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 1

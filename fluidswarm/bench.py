@@ -20,8 +20,15 @@ from pathlib import Path
 import numpy as np
 
 from agent.protocol.errors import UserError
-from fluidswarm.bench_record import (BenchRecord, BenchRecordError, FailedRun, Formation, LockstepRun, Machine,
-                                     with_readme_section)
+from fluidswarm.bench_record import (
+    BenchRecord,
+    BenchRecordError,
+    FailedRun,
+    Formation,
+    LockstepRun,
+    Machine,
+    with_readme_section,
+)
 from fluidswarm.scenario import scenarios_dir
 
 FULL_NS = (25, 50, 100, 200, 300, 1000)
@@ -39,12 +46,19 @@ def register(sub) -> None:
     p.add_argument("--ns", help="comma-separated agent counts (default: 25,50,100,200,300; quick: 9,16,25)")
     p.add_argument("--steps", type=int, help="lockstep steps per run (default 300; quick 30)")
     p.add_argument("--gesture-agents", type=int, help="agents per gesture imitation (default 300; quick 20)")
-    p.add_argument("--json", action="store_true",
-                   help="print the bench's record (fluidswarm/bench_record.py BenchRecord, the object of results.json) "
-                        "as one JSON object instead of key=value lines")
-    p.add_argument("--readme", metavar="README", nargs="?", const="README.md",
-                   help="measure nothing: rewrite the benchmark figures of README (default: %(const)s) from "
-                        "OUT/results.json")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print the bench's record (fluidswarm/bench_record.py BenchRecord, the object of results.json) "
+        "as one JSON object instead of key=value lines",
+    )
+    p.add_argument(
+        "--readme",
+        metavar="README",
+        nargs="?",
+        const="README.md",
+        help="measure nothing: rewrite the benchmark figures of README (default: %(const)s) from OUT/results.json",
+    )
     p.set_defaults(func=run)
 
 
@@ -55,7 +69,9 @@ def machine() -> Machine:
             mem = int(f.readline().split()[1]) // 1024
     except OSError:
         pass
-    return Machine(cores=os.cpu_count() or 1, memory_mb=mem, python=platform.python_version(), platform=platform.platform())
+    return Machine(
+        cores=os.cpu_count() or 1, memory_mb=mem, python=platform.python_version(), platform=platform.platform()
+    )
 
 
 def lockstep(n: int, steps: int) -> LockstepRun:
@@ -79,8 +95,11 @@ def lockstep(n: int, steps: int) -> LockstepRun:
     sps = res.steps_per_second
     rss = [r.rss_mb for r in res.finals.values()]  # each agent's own peak (VmHWM)
     # CPU of the stepping alone (start-up, imports and session opening excluded), per agent and step.
-    stepping = [(r.cpu_seconds - r.cpu_seconds_at_start) / r.steps for r in done
-                if r.cpu_seconds_at_start is not None and r.steps]
+    stepping = [
+        (r.cpu_seconds - r.cpu_seconds_at_start) / r.steps
+        for r in done
+        if r.cpu_seconds_at_start is not None and r.steps
+    ]
 
     central_steps = min(steps, 60)
     t = time.perf_counter()
@@ -90,7 +109,9 @@ def lockstep(n: int, steps: int) -> LockstepRun:
     VectorisedDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     vec_sps = steps / (time.perf_counter() - t)
     return LockstepRun(
-        n=n, steps=steps, agents_finished=len(done),
+        n=n,
+        steps=steps,
+        agents_finished=len(done),
         steps_per_second=round(sps, 3),
         wall_seconds=round(steps / sps, 3) if sps else None,
         startup_seconds=round(res.startup_seconds, 3),
@@ -109,8 +130,11 @@ def lockstep(n: int, steps: int) -> LockstepRun:
 
 
 def fit_exponent(runs: list[LockstepRun | FailedRun]) -> float | None:
-    pts = [(r.n, 1.0 / r.steps_per_second) for r in runs
-           if isinstance(r, LockstepRun) and r.steps_per_second and r.n <= FIT_MAX_N]
+    pts = [
+        (r.n, 1.0 / r.steps_per_second)
+        for r in runs
+        if isinstance(r, LockstepRun) and r.steps_per_second and r.n <= FIT_MAX_N
+    ]
     if len(pts) < 2:
         return None
     x = np.log([p[0] for p in pts])
@@ -135,8 +159,18 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict[
         if image is None:
             out[gesture] = fid[gesture] = formed[gesture] = None
             continue
-        cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents),
-               "--out", f"out/bench/{gesture}", "--json"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "imitate",
+            str(image),
+            "--agents",
+            str(agents),
+            "--out",
+            f"out/bench/{gesture}",
+            "--json",
+        ]
         if steps:
             cmd += ["--steps", str(steps)]
         print(f"gesture {gesture}: {agents} agents ...", file=sys.stderr, flush=True)
@@ -145,8 +179,9 @@ def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict[
         out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
         record = json.loads(r.stdout) if r.returncode == 0 else None
         fid[gesture] = record["fidelity"]["iou"] if record else None
-        formed[gesture] = (Formation(seconds=record["formation_seconds"], settled=record["formation_settled"])
-                           if record else None)
+        formed[gesture] = (
+            Formation(seconds=record["formation_seconds"], settled=record["formation_settled"]) if record else None
+        )
     return out, fid, formed
 
 
@@ -160,8 +195,10 @@ def region_controller_timing() -> dict:
 
     inputs = scenarios_dir() / "inputs"
     out = {}
-    for key, path in (("region_controller_ms_per_video_frame", inputs / "weizmann_wave2_person0.png"),
-                      ("region_controller_ms_per_hand_photo", inputs / "digit2_IMG_1140.JPG")):
+    for key, path in (
+        ("region_controller_ms_per_video_frame", inputs / "weizmann_wave2_person0.png"),
+        ("region_controller_ms_per_hand_photo", inputs / "digit2_IMG_1140.JPG"),
+    ):
         frames = load_frames(path)
         t = time.perf_counter()
         obs = observe(path, frames)
@@ -175,9 +212,10 @@ def region_controller_timing() -> dict:
 def perception_timings() -> dict:
     """Eigen-image training on the shared hand set (features + fit, 'best' method), inference per image."""
     out = {"eigen_training_seconds": None, "eigen_inference_ms": None}
+    from threadpoolctl import threadpool_limits
+
     from perception.dataset import SHARED_HANDS, load_folder
     from perception.eigen import EigenClassifier
-    from threadpoolctl import threadpool_limits
 
     if not SHARED_HANDS.is_dir():
         out["perception_error"] = f"{SHARED_HANDS} missing"
@@ -197,24 +235,38 @@ def perception_timings() -> dict:
 def write_outputs(record: BenchRecord, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(record.to_json(indent=2) + "\n")
-    lines = [f"Measured {record.date} on {record.machine.cores} cores, "
-             f"{record.machine.memory_mb // 1024} GiB ({'quick' if record.quick else 'full'} run).", "",
-             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Measured {record.date} on {record.machine.cores} cores, "
+        f"{record.machine.memory_mb // 1024} GiB ({'quick' if record.quick else 'full'} run).",
+        "",
+        "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in record.runs:
         if isinstance(r, FailedRun):
             lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 11)
             continue
-        lines.append(f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
-                     f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | {r.rss_mb_total} | "
-                     f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |")
-    lines += ["", f"Step time ~ N^{record.step_time_exponent} (log-log fit).", "",
-              "Gesture imitation wall time [s]: " + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_seconds.items()),
-              f"(with {record.gesture_agents} agent processes; thesis Table 6.1: 126-219 s per gesture)", "",
-              "Fidelity (iou) of those runs: " + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_fidelity_iou.items()), "",
-              f"Eigen-image training: {record.eigen_training_seconds} s; inference {record.eigen_inference_ms} ms/image.", "",
-              f"Region controller: {record.region_controller_ms_per_video_frame} ms per video frame (Weizmann clip, "
-              f"person regions + ellipses + command), {record.region_controller_ms_per_hand_photo} ms per hand photograph."]
+        lines.append(
+            f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
+            f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | {r.rss_mb_total} | "
+            f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |"
+        )
+    lines += [
+        "",
+        f"Step time ~ N^{record.step_time_exponent} (log-log fit).",
+        "",
+        "Gesture imitation wall time [s]: "
+        + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_seconds.items()),
+        f"(with {record.gesture_agents} agent processes; thesis Table 6.1: 126-219 s per gesture)",
+        "",
+        "Fidelity (iou) of those runs: "
+        + ", ".join(f"{k} {v}" for k, v in record.gesture_imitation_fidelity_iou.items()),
+        "",
+        f"Eigen-image training: {record.eigen_training_seconds} s; inference {record.eigen_inference_ms} ms/image.",
+        "",
+        f"Region controller: {record.region_controller_ms_per_video_frame} ms per video frame (Weizmann clip, "
+        f"person regions + ellipses + command), {record.region_controller_ms_per_hand_photo} ms per hand photograph.",
+    ]
     (out / "results.md").write_text("\n".join(lines) + "\n")
     import matplotlib
 
@@ -289,16 +341,19 @@ def run(args) -> int:
             print(f"n={n} failed: {exc}", file=lines, flush=True)
             runs.append(FailedRun(n=n, steps=steps, error=str(exc)))
             continue
-        print(f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
-              f"rss_mb_per_agent={r.rss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
-              file=lines, flush=True)
+        print(
+            f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
+            f"rss_mb_per_agent={r.rss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
+            file=lines,
+            flush=True,
+        )
         runs.append(r)
     print("gesture imitation ...", file=sys.stderr, flush=True)
     gestures, gesture_fidelity, gesture_formation = imitation_seconds(gesture_agents, 60 if args.quick else None)
     perception = perception_timings()
     perception.update(region_controller_timing())
     record = BenchRecord(
-        date=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         quick=bool(args.quick),
         machine=machine(),
         runs=tuple(runs),

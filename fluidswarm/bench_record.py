@@ -119,7 +119,7 @@ class BenchRecord:
         return json.dumps(json_finite(self.as_dict()), indent=indent, separators=None if indent else (",", ":"))
 
     @classmethod
-    def from_dict(cls, d: object) -> "BenchRecord":
+    def from_dict(cls, d: object) -> BenchRecord:
         if not isinstance(d, dict):
             raise BenchRecordError("expected a JSON object")
         runs = d.get("runs")
@@ -127,20 +127,23 @@ class BenchRecord:
             raise BenchRecordError("key 'runs': expected a list")
         kw = _typed_fields(cls, d, "", skip={"machine", "runs", "gesture_imitation_formation"})
         kw["machine"] = Machine(**_typed_fields(Machine, d.get("machine"), "machine."))
-        kw["runs"] = tuple(FailedRun(**_typed_fields(FailedRun, r, f"runs[{k}]."))
-                           if isinstance(r, dict) and "error" in r
-                           else LockstepRun(**_typed_fields(LockstepRun, r, f"runs[{k}]."))
-                           for k, r in enumerate(runs))
+        kw["runs"] = tuple(
+            FailedRun(**_typed_fields(FailedRun, r, f"runs[{k}]."))
+            if isinstance(r, dict) and "error" in r
+            else LockstepRun(**_typed_fields(LockstepRun, r, f"runs[{k}]."))
+            for k, r in enumerate(runs)
+        )
         formation = d.get("gesture_imitation_formation")
         if not isinstance(formation, dict):
             raise BenchRecordError("key 'gesture_imitation_formation': expected an object")
         kw["gesture_imitation_formation"] = {
             str(g): None if v is None else Formation(**_typed_fields(Formation, v, f"gesture_imitation_formation.{g}."))
-            for g, v in formation.items()}
+            for g, v in formation.items()
+        }
         return cls(**kw)
 
     @classmethod
-    def load(cls, path: str | Path) -> "BenchRecord":
+    def load(cls, path: str | Path) -> BenchRecord:
         """Read a results.json; OSError when unreadable, BenchRecordError (naming the file) when not a record."""
         try:
             return cls.from_dict(json.loads(Path(path).read_text()))
@@ -172,23 +175,30 @@ def readme_section(record: BenchRecord, fit_max_n: int) -> str:
         f"Measured {record.date[:10]} ({'quick' if record.quick else 'full'} run) on this {record.machine.cores}-core, "
         f"{round(record.machine.memory_mb / 1024)} GiB machine: lockstep runs of {'/'.join(map(str, steps))} steps of "
         "the `verify` set-up (all SPH terms active), the compiled agent, side by side with the centralised drivers "
-        "in the same run:", "",
+        "in the same run:",
+        "",
         "| N agents | steps/s | start-up s | msgs/agent/step | neighbours | CPU µs/agent-step | RSS MB/agent "
         "| per-particle central steps/s | vectorised steps/s | decentralised / per-particle time |",
-        "|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in record.runs:
         if isinstance(r, FailedRun):
             lines.append(f"| {r.n} | did not finish: {r.error} |" + " |" * 8)
             continue
-        lines.append(f"| {r.n} | {_f(r.steps_per_second, 1)} | {_f(r.startup_seconds, 2)} | "
-                     f"{_f(r.msgs_per_agent_step, 1)} | {_f(r.neighbours_per_agent, 1)} | "
-                     f"{_f(r.cpu_us_per_agent_step, 0)} | {_f(r.rss_mb_per_agent, 1)} | "
-                     f"{_f(r.centralised_steps_per_second, 0)} | {_f(r.vectorised_steps_per_second, 0)} | "
-                     f"{_f(r.decentralisation_ratio, 2)} |")
+        lines.append(
+            f"| {r.n} | {_f(r.steps_per_second, 1)} | {_f(r.startup_seconds, 2)} | "
+            f"{_f(r.msgs_per_agent_step, 1)} | {_f(r.neighbours_per_agent, 1)} | "
+            f"{_f(r.cpu_us_per_agent_step, 0)} | {_f(r.rss_mb_per_agent, 1)} | "
+            f"{_f(r.centralised_steps_per_second, 0)} | {_f(r.vectorised_steps_per_second, 0)} | "
+            f"{_f(r.decentralisation_ratio, 2)} |"
+        )
     fitted = sorted(n for n in ok if n <= fit_max_n)
     lines.append("")
     if record.step_time_exponent is not None and fitted:
-        lines += [f"Step time grows as N^{record.step_time_exponent} (log-log fit over N = {fitted[0]}…{fitted[-1]}).", ""]
+        lines += [
+            f"Step time grows as N^{record.step_time_exponent} (log-log fit over N = {fitted[0]}…{fitted[-1]}).",
+            "",
+        ]
     gestures = []
     for g, seconds in record.gesture_imitation_seconds.items():
         if seconds is None:
@@ -196,17 +206,26 @@ def readme_section(record: BenchRecord, fit_max_n: int) -> str:
             continue
         iou = record.gesture_imitation_fidelity_iou.get(g)
         formed = record.gesture_imitation_formation.get(g)
-        how = ("" if formed is None else f", settled at {formed.seconds:.1f} s simulated" if formed.settled
-               else f", not settled by the {formed.seconds:.0f} s cap")
+        how = (
+            ""
+            if formed is None
+            else f", settled at {formed.seconds:.1f} s simulated"
+            if formed.settled
+            else f", not settled by the {formed.seconds:.0f} s cap"
+        )
         gestures.append(f"{g} {seconds:.1f} s (IoU {_f(iou, 2)}{how})")
-    lines.append(f"Hand-gesture imitation with {record.gesture_agents} agent processes (fill controller with finger "
-                 "zones, ends when settled; start-up, recorder and coordinator included): " + ", ".join(gestures)
-                 + " — thesis Table 6.1: 126–219 s per gesture.")
+    lines.append(
+        f"Hand-gesture imitation with {record.gesture_agents} agent processes (fill controller with finger "
+        "zones, ends when settled; start-up, recorder and coordinator included): "
+        + ", ".join(gestures)
+        + " — thesis Table 6.1: 126–219 s per gesture."
+    )
     lines.append("")
     perception = []
     if record.eigen_training_seconds is not None:
-        perception.append(f"Eigen-image training ('best' pipeline, whole shared hand set): "
-                          f"{record.eigen_training_seconds:.1f} s.")
+        perception.append(
+            f"Eigen-image training ('best' pipeline, whole shared hand set): {record.eigen_training_seconds:.1f} s."
+        )
     if record.region_controller_ms_per_video_frame is not None:
         perception.append(f"Region controller: {record.region_controller_ms_per_video_frame:.0f} ms per video frame.")
     if record.perception_error:
@@ -224,22 +243,28 @@ def _targets(record: BenchRecord, ok: dict[int, LockstepRun]) -> str:
         parts.append("N = 300 **did not run**")
     else:
         rss = n300.rss_mb_per_agent
-        parts += [f"N = 300 ≥ {N300_STEPS_PER_SECOND} steps/s ({n300.steps_per_second:.1f}, "
-                  f"{_mark(n300.steps_per_second >= N300_STEPS_PER_SECOND)})",
-                  f"RSS ≤ {RSS_MB_PER_AGENT} MB per agent ({_f(rss, 1)}, {_mark(rss is not None and rss <= RSS_MB_PER_AGENT)})",
-                  f"start-up of 300 agents ≤ {N300_STARTUP_SECONDS} s ({n300.startup_seconds:.2f}, "
-                  f"{_mark(n300.startup_seconds <= N300_STARTUP_SECONDS)})"]
+        parts += [
+            f"N = 300 ≥ {N300_STEPS_PER_SECOND} steps/s ({n300.steps_per_second:.1f}, "
+            f"{_mark(n300.steps_per_second >= N300_STEPS_PER_SECOND)})",
+            f"RSS ≤ {RSS_MB_PER_AGENT} MB per agent ({_f(rss, 1)}, {_mark(rss is not None and rss <= RSS_MB_PER_AGENT)})",
+            f"start-up of 300 agents ≤ {N300_STARTUP_SECONDS} s ({n300.startup_seconds:.2f}, "
+            f"{_mark(n300.startup_seconds <= N300_STARTUP_SECONDS)})",
+        ]
     exp = record.step_time_exponent
     parts.append(f"exponent ≤ {EXPONENT} ({_f(exp, 3)}, {_mark(exp is not None and exp <= EXPONENT)})")
     if n1000 is None:
         parts.append("N = 1000 completes (**it did not**)")
     else:
-        parts.append(f"N = 1000 completes ({n1000.agents_finished}/1000, {n1000.steps_per_second:.1f} steps/s, "
-                     f"start-up {n1000.startup_seconds:.1f} s, {_mark(n1000.agents_finished == 1000)})")
+        parts.append(
+            f"N = 1000 completes ({n1000.agents_finished}/1000, {n1000.steps_per_second:.1f} steps/s, "
+            f"start-up {n1000.startup_seconds:.1f} s, {_mark(n1000.agents_finished == 1000)})"
+        )
     times = [v for v in record.gesture_imitation_seconds.values() if v is not None]
     done = len(times) == len(record.gesture_imitation_seconds) and times
     span = f"{min(times):.0f}–{max(times):.0f} s" if times else "none finished"
-    parts.append(f"each {record.gesture_agents}-agent gesture imitation ≤ {GESTURE_SECONDS} s ({span}, {_mark(bool(done) and max(times) <= GESTURE_SECONDS)})")
+    parts.append(
+        f"each {record.gesture_agents}-agent gesture imitation ≤ {GESTURE_SECONDS} s ({span}, {_mark(bool(done) and max(times) <= GESTURE_SECONDS)})"
+    )
     return "**Targets (issue 14):** " + "; ".join(parts) + "."
 
 
@@ -251,7 +276,6 @@ def with_readme_section(readme: str, record: BenchRecord, fit_max_n: int) -> str
         raise ValueError(f"no benchmark section: the lines {README_BEGIN!r} and {README_END!r} are missing")
     head = readme[: begin + len(README_BEGIN)]
     return f"{head}\n{readme_section(record, fit_max_n)}\n{readme[end:]}"
-
 
 
 def _value(value, hint, key: str):

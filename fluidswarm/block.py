@@ -42,11 +42,28 @@ class Block:
         run.launcher.check_ids(range(self.agents))  # before the recorder: nothing starts for a swarm too large
         self.setup = setup = self.make_setup()
         if self.record:
-            run.record_to({"scenario": "launch", "agents": self.agents, "steps": self.steps,
-                           "params": setup.params.as_dict(), "robot": setup.robot.as_dict()}, setup.params.dt,
-                          path=self.record)
-        run.swarm(SwarmPlan(setup, self.steps, self.sync, ids=self.ids, swarm_ids=list(setup.ids),
-                            startup_timeout=self.startup_timeout, run_timeout=self.run_timeout))
+            run.record_to(
+                {
+                    "scenario": "launch",
+                    "agents": self.agents,
+                    "steps": self.steps,
+                    "params": setup.params.as_dict(),
+                    "robot": setup.robot.as_dict(),
+                },
+                setup.params.dt,
+                path=self.record,
+            )
+        run.swarm(
+            SwarmPlan(
+                setup,
+                self.steps,
+                self.sync,
+                ids=self.ids,
+                swarm_ids=list(setup.ids),
+                startup_timeout=self.startup_timeout,
+                run_timeout=self.run_timeout,
+            )
+        )
 
     def score(self, run: Run) -> None:
         if not self.reference:

@@ -51,9 +51,19 @@ class Experiment:
         sc = self.sc
         self.setup = setup = experiment_setup(sc, self.agents)
         steps = sc.steps or DEFAULT_STEPS
-        meta = {"scenario": sc.name, "scenario_file": str(sc.path), "experiment": sc.experiment, "agents": self.agents,
-                "steps": steps, "seed": sc.seed, "sync": sc.sync, "params": setup.params.as_dict(),
-                "robot": setup.robot.as_dict(), "agent_ids": [int(i) for i in setup.ids], "failures": [f.__dict__ for f in sc.failures]}
+        meta = {
+            "scenario": sc.name,
+            "scenario_file": str(sc.path),
+            "experiment": sc.experiment,
+            "agents": self.agents,
+            "steps": steps,
+            "seed": sc.seed,
+            "sync": sc.sync,
+            "params": setup.params.as_dict(),
+            "robot": setup.robot.as_dict(),
+            "agent_ids": [int(i) for i in setup.ids],
+            "failures": [f.__dict__ for f in sc.failures],
+        }
         run.record_to(meta, setup.params.dt)
         drop = {f.agent: {"drop_out": f.fraction} for f in sc.failures if f.kind == "drop"}
         run.swarm(SwarmPlan(setup, steps, scenario_sync(sc), per_agent=drop))

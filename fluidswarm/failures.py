@@ -75,7 +75,9 @@ class FailureInjector:
                 victims = self._signal_victims(procs, f.count, signal.SIGSTOP)
                 self.log.frozen.update(victims)
                 self.log.injected.append(f"step {f.at_step}: SIGSTOP agents {victims} for {f.seconds:g} s")
-                threading.Timer(f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]).start()
+                threading.Timer(
+                    f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]
+                ).start()
                 self._calm_from = max(self._calm_from, time.monotonic() + f.seconds)
             elif f.kind == "kill_coordinator" and self.coordinator is not None:
                 # planned: a survivable fault (agents keep their last command), not a lost helper

@@ -21,8 +21,13 @@ from agent.protocol.errors import UserError
 from agent.sph.robot import POINT, RobotModel
 from agent.supervisor import die_with_parent
 from coordinator.control.fidelity import Fidelity
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, observations_for, \
-    prepare_observation
+from coordinator.control.imitation_setup import (
+    DEFAULT_CONTROLLER,
+    DEFAULT_STEPS,
+    Imitation,
+    observations_for,
+    prepare_observation,
+)
 from coordinator.control.settle import SettleRule, SettleWatch
 from coordinator.process import commands_along, write_commands
 from fluidswarm.recording.reader import recorded_fidelity
@@ -50,8 +55,14 @@ def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
     # the run's command key and the coordinator's credentials (docs/security.md) travel in its environment
     env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
     cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run] + args
-    proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, preexec_fn=die_with_parent)
+    proc = subprocess.Popen(
+        cmd,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        preexec_fn=die_with_parent,
+    )
     run.add_coordinator(proc)
     return proc
 
@@ -65,8 +76,16 @@ def write_target(folder: Path, im: Imitation, frame_bgr: np.ndarray) -> tuple[st
     return str(target), str(image)
 
 
-def score_formation(run: Run, record: RunRecord, mask: np.ndarray, im: Imitation, title: str, score: Fidelity,
-                    waypoints=None, outline=()) -> None:
+def score_formation(
+    run: Run,
+    record: RunRecord,
+    mask: np.ndarray,
+    im: Imitation,
+    title: str,
+    score: Fidelity,
+    waypoints=None,
+    outline=(),
+) -> None:
     """The formation's `score` into the record, and the formation PNG of the finished agents over `mask`."""
     ids, pos = record.done_positions()
     classes = np.array([record.finals[i].particle_class for i in ids], dtype=int)
@@ -74,9 +93,17 @@ def score_formation(run: Run, record: RunRecord, mask: np.ndarray, im: Imitation
     t = im.transform
     rows, cols = mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
-    png = plot_formation(Path(run.options.out) / f"{run.options.name}_formation.png", pos, classes,
-                         [c.name for c in im.command.classes], f"{title}: {len(ids)} agents, iou {record.fidelity.iou:.2f}",
-                         background=mask.astype(float), extent=extent, waypoints=waypoints, outline=outline)
+    png = plot_formation(
+        Path(run.options.out) / f"{run.options.name}_formation.png",
+        pos,
+        classes,
+        [c.name for c in im.command.classes],
+        f"{title}: {len(ids)} agents, iou {record.fidelity.iou:.2f}",
+        background=mask.astype(float),
+        extent=extent,
+        waypoints=waypoints,
+        outline=outline,
+    )
     record.pictures.append(str(png))
     last_step = max((r.steps for r in record.finals.values() if r.done), default=0)
     if record.formation_seconds is None:
@@ -125,26 +152,48 @@ class FileImitation:
         o = run.options
         tmp = run.scratch
         target, image = write_target(tmp, im, im.observation.frame)
-        meta = {"scenario": o.name, "input": str(self.input_path), "frame": frame, "frame_steps": self.frame_steps,
-                "gesture": im.command.gesture, "controller": self.controller, "agents": self.agents,
-                "steps": self.steps, "seed": o.seed, "sync": self.sync.mode, "params": im.setup.params.as_dict(),
-                "robot": im.setup.robot.as_dict(), "agent_ids": list(range(self.agents)), "transform": im.transform.as_dict(),
-                "failures": [getattr(f, "__dict__", str(f)) for f in o.failures]}
+        meta = {
+            "scenario": o.name,
+            "input": str(self.input_path),
+            "frame": frame,
+            "frame_steps": self.frame_steps,
+            "gesture": im.command.gesture,
+            "controller": self.controller,
+            "agents": self.agents,
+            "steps": self.steps,
+            "seed": o.seed,
+            "sync": self.sync.mode,
+            "params": im.setup.params.as_dict(),
+            "robot": im.setup.robot.as_dict(),
+            "agent_ids": list(range(self.agents)),
+            "transform": im.transform.as_dict(),
+            "failures": [getattr(f, "__dict__", str(f)) for f in o.failures],
+        }
         run.record_to(meta, im.setup.params.dt, target=target, image=image)
         write_commands(tmp / "commands.json", commands)
-        start_coordinator(run, ["--commands", str(tmp / "commands.json"), "--agents", str(self.agents),
-                                "--controller", self.controller]
-                          + (["--frame-steps", str(self.frame_steps)] if sequence else []))
+        start_coordinator(
+            run,
+            ["--commands", str(tmp / "commands.json"), "--agents", str(self.agents), "--controller", self.controller]
+            + (["--frame-steps", str(self.frame_steps)] if sequence else []),
+        )
         self.watch = None
         if self.settle is not None and not sequence:
             # the formation may settle before the failures are due: not before they have all happened
-            self.watch = SettleWatch(run.launcher, im.mask, im.transform, im.setup.params.dt, self.settle,
-                                     busy_with_failures(run))
+            self.watch = SettleWatch(
+                run.launcher, im.mask, im.transform, im.setup.params.dt, self.settle, busy_with_failures(run)
+            )
             run.on_start(self.watch.start)
             run.on_stop(self.watch.stop)
         first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
-        run.swarm(SwarmPlan(im.setup, self.steps, self.sync, per_agent={i: {"drop_out": f} for i, f in (self.drop or {}).items()},
-                            joiners_at=(first.x, first.y)))
+        run.swarm(
+            SwarmPlan(
+                im.setup,
+                self.steps,
+                self.sync,
+                per_agent={i: {"drop_out": f} for i, f in (self.drop or {}).items()},
+                joiners_at=(first.x, first.y),
+            )
+        )
 
     def score(self, run: Run) -> None:
         record, im = run.record, self.im
@@ -159,13 +208,30 @@ class FileImitation:
         # Scored once, by the recorder, which sees every state: the last recorded step against the target
         # (for a sequence, the last frame's silhouette); nothing recorded, nothing formed.
         score = recorded_fidelity(run.mcap) or Fidelity(0.0, 0.0, 0.0)
-        score_formation(run, record, im.mask, im, Path(self.input_path).name, score, waypoints=wps,
-                        outline=fill.rings if fill is not None and not sequence else ())
+        score_formation(
+            run,
+            record,
+            im.mask,
+            im,
+            Path(self.input_path).name,
+            score,
+            waypoints=wps,
+            outline=fill.rings if fill is not None and not sequence else (),
+        )
 
 
-def imitate(input_path: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
-            controller: str = DEFAULT_CONTROLLER, name: str = "imitate", frame: int | None = None, live: str = "",
-            progress: bool = False, robot: RobotModel = POINT) -> RunRecord:
+def imitate(
+    input_path: str,
+    agents: int = 60,
+    steps: int = DEFAULT_STEPS,
+    out: str | Path = "out/imitate",
+    controller: str = DEFAULT_CONTROLLER,
+    name: str = "imitate",
+    frame: int | None = None,
+    live: str = "",
+    progress: bool = False,
+    robot: RobotModel = POINT,
+) -> RunRecord:
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 

@@ -123,22 +123,49 @@ class CameraImitation:
     def drive(self, run: Run) -> None:
         o = run.options
         tmp = run.scratch
-        coord = start_coordinator(run, ["--camera", str(self.source), "--fps", repr(float(self.fps)),
-                                        "--stall-seconds", repr(float(self.stall_seconds)), "--agents", str(self.agents),
-                                        "--controller", self.controller, "--observations", str(tmp),
-                                        "--subject", self.subject])
+        coord = start_coordinator(
+            run,
+            [
+                "--camera",
+                str(self.source),
+                "--fps",
+                repr(float(self.fps)),
+                "--stall-seconds",
+                repr(float(self.stall_seconds)),
+                "--agents",
+                str(self.agents),
+                "--controller",
+                self.controller,
+                "--observations",
+                str(tmp),
+                "--subject",
+                self.subject,
+            ],
+        )
         run.launcher.helpers.forget(coord)  # its end is the stream's end, handled here: not a lost helper
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)
-        first = load_observation(_wait_first(coord, tmp / "first.npz", self.source,
-                                             FIRST_SECONDS + self.stall_seconds, self.subject))
+        first = load_observation(
+            _wait_first(coord, tmp / "first.npz", self.source, FIRST_SECONDS + self.stall_seconds, self.subject)
+        )
         self.im = im = prepare_observation(first, self.agents, controller=self.controller)
         target, image = write_target(tmp, im, first.frame)
-        meta = {"scenario": o.name, "camera": str(self.source), "fps": self.fps, "gesture": im.command.gesture,
-                "controller": self.controller, "agents": self.agents, "steps": self.steps, "sync": "lockstep",
-                "params": im.setup.params.as_dict(), "agent_ids": list(range(self.agents)),
-                "transform": im.transform.as_dict(), "subject": self.subject, "realtime": True}
+        meta = {
+            "scenario": o.name,
+            "camera": str(self.source),
+            "fps": self.fps,
+            "gesture": im.command.gesture,
+            "controller": self.controller,
+            "agents": self.agents,
+            "steps": self.steps,
+            "sync": "lockstep",
+            "params": im.setup.params.as_dict(),
+            "agent_ids": list(range(self.agents)),
+            "transform": im.transform.as_dict(),
+            "subject": self.subject,
+            "realtime": True,
+        }
         run.record_to(meta, im.setup.params.dt, target=target, image=image)
         run.swarm(SwarmPlan(im.setup, self.steps))
         self.latest = load_observation(tmp / "latest.npz")
@@ -154,8 +181,9 @@ class CameraImitation:
             if e.get("event") == "subject":
                 r.subject = f"{e.get('subject')} ({e.get('how')})"
             elif e.get("event") == "command":
-                r.gestures.append({"seq": e.get("seq"), "gesture": str(e.get("gesture")), "t": round(t, 2),
-                                   "why": str(e.get("why"))})
+                r.gestures.append(
+                    {"seq": e.get("seq"), "gesture": str(e.get("gesture")), "t": round(t, 2), "why": str(e.get("why"))}
+                )
             elif e.get("event") == "missing":
                 r.notes.append(f"t={t:.2f} s: {e.get('what')}")
             elif e.get("event") == "end":
@@ -173,12 +201,22 @@ class CameraImitation:
         score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}", score)
 
 
-def imitate_camera(source: str, agents: int = 60, steps: int = DEFAULT_STEPS, out: str | Path = "out/imitate",
-                   controller: str = DEFAULT_CONTROLLER, fps: float = 5.0, stall_seconds: float = 5.0,
-                   live: str = "", name: str = "camera", subject: str = "person") -> RunRecord:
+def imitate_camera(
+    source: str,
+    agents: int = 60,
+    steps: int = DEFAULT_STEPS,
+    out: str | Path = "out/imitate",
+    controller: str = DEFAULT_CONTROLLER,
+    fps: float = 5.0,
+    stall_seconds: float = 5.0,
+    live: str = "",
+    name: str = "camera",
+    subject: str = "person",
+) -> RunRecord:
     """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
     kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject)
-    with Run(kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True,
-                              realtime=True)) as run:
+    with Run(
+        kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, realtime=True)
+    ) as run:
         kind.drive(run)
     return run.record

@@ -20,17 +20,28 @@ def register(sub) -> None:
     p.set_defaults(func=_coordinator)
     p = sub.add_parser("imitate", help="perception -> coordinator -> N agent processes -> formation, MCAP, fidelity")
     p.add_argument("input", nargs="?", help="image, folder of frames, or video (or --camera)")
-    p.add_argument("--camera", metavar="DEVICE|URL|FILE",
-                   help="follow a person or a hand watched live: frames read as they come, a new command when the "
-                        "gesture changes, the swarm paced to the wall clock")
-    p.add_argument("--subject", default="person", choices=["hand", "person", "auto"],
-                   help="--camera: a hand in front of a plain background, a person (static camera), or auto "
-                        "(decided from the first frames, said in the record)")
+    p.add_argument(
+        "--camera",
+        metavar="DEVICE|URL|FILE",
+        help="follow a person or a hand watched live: frames read as they come, a new command when the "
+        "gesture changes, the swarm paced to the wall clock",
+    )
+    p.add_argument(
+        "--subject",
+        default="person",
+        choices=["hand", "person", "auto"],
+        help="--camera: a hand in front of a plain background, a person (static camera), or auto "
+        "(decided from the first frames, said in the record)",
+    )
     p.add_argument("--fps", type=float, default=5.0, help="--camera: at most this many frames observed per second")
     p.add_argument("--stall-seconds", type=float, default=5.0, help="--camera: no new frame for this long is an error")
-    p.add_argument("--controller", default="fill", choices=["fill", "region", "pca", "ann"],
-                   help="fill (default): the swarm fills the silhouette like a liquid; region: waypoints at k-means "
-                        "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force")
+    p.add_argument(
+        "--controller",
+        default="fill",
+        choices=["fill", "region", "pca", "ann"],
+        help="fill (default): the swarm fills the silhouette like a liquid; region: waypoints at k-means "
+        "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force",
+    )
     p.add_argument("--frame", type=int, default=None, help="which frame of a clip or folder to imitate (default 0)")
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)
@@ -71,14 +82,32 @@ def _imitate(args) -> int:
             raise UserError("--robot: not yet with --camera (an input file only)")
         from fluidswarm.imitate_camera import imitate_camera
 
-        record = imitate_camera(args.camera, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
-                                fps=args.fps, stall_seconds=args.stall_seconds, live=live, subject=args.subject)
+        record = imitate_camera(
+            args.camera,
+            agents=args.agents,
+            steps=steps,
+            out=args.out,
+            controller=args.controller,
+            fps=args.fps,
+            stall_seconds=args.stall_seconds,
+            live=live,
+            subject=args.subject,
+        )
     else:
         from fluidswarm.imitate import imitate
 
         try:
-            record = imitate(args.input, agents=args.agents, steps=steps, out=args.out, controller=args.controller,
-                             frame=args.frame, name=Path(args.input).stem or "imitate", live=live, robot=robot)
+            record = imitate(
+                args.input,
+                agents=args.agents,
+                steps=steps,
+                out=args.out,
+                controller=args.controller,
+                frame=args.frame,
+                name=Path(args.input).stem or "imitate",
+                live=live,
+                robot=robot,
+            )
         except (InputError, SegmentationError, ShapeError) as exc:
             raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
     if args.json:

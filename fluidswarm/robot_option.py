@@ -5,9 +5,11 @@ from __future__ import annotations
 from agent.protocol.errors import UserError
 from agent.sph.robot import POINT, ROBOT_KINDS, RobotModel, robot_from
 
-HELP = ("the particles' body and drive (docs/robots.md): point (the thesis' ideal particle, the default), "
-        "holonomic (speed and acceleration limits, a body) or unicycle (differential drive: heading, forward "
-        "speed, turn rate); limits and radius: the e-puck's scaled to the domain, or a scenario's [robot] table")
+HELP = (
+    "the particles' body and drive (docs/robots.md): point (the thesis' ideal particle, the default), "
+    "holonomic (speed and acceleration limits, a body) or unicycle (differential drive: heading, forward "
+    "speed, turn rate); limits and radius: the e-puck's scaled to the domain, or a scenario's [robot] table"
+)
 
 
 def add_robot_argument(parser) -> None:

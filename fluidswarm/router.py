@@ -19,11 +19,18 @@ from agent.protocol.stopping import stop_on_signals
 
 def register(sub) -> None:
     p = sub.add_parser("router", help="run a Zenoh router for this host (agents of other hosts connect through it)")
-    p.add_argument("--listen", action="append", default=None, help="endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
-    p.add_argument("--connect", action="append", default=[], help="another host's router, e.g. tls/10.0.0.2:7448 (repeatable)")
-    p.add_argument("--auth-file", help="users file (user:password lines, users are roles: agent-<id>, launcher, "
-                                       "coordinator, recorder, router); every session must then authenticate and "
-                                       "gets its role's rights only (docs/security.md)")
+    p.add_argument(
+        "--listen", action="append", default=None, help="endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)"
+    )
+    p.add_argument(
+        "--connect", action="append", default=[], help="another host's router, e.g. tls/10.0.0.2:7448 (repeatable)"
+    )
+    p.add_argument(
+        "--auth-file",
+        help="users file (user:password lines, users are roles: agent-<id>, launcher, "
+        "coordinator, recorder, router); every session must then authenticate and "
+        "gets its role's rights only (docs/security.md)",
+    )
     p.add_argument("--tls-ca", help="PEM of the CA that signed every router's certificate (tls/ endpoints, mutual TLS)")
     p.add_argument("--tls-cert", help="PEM certificate of this router")
     p.add_argument("--tls-key", help="PEM private key of this router")
@@ -66,12 +73,15 @@ def run(args) -> int:
             raise UserError(f"--auth-file {exc}") from None
         own = next((c for c in users if c.user == "router"), None)
         if own is None and args.connect:
-            raise UserError(f"--auth-file {args.auth_file}: no 'router' line (this router's credentials "
-                            "towards the routers it connects to)")
+            raise UserError(
+                f"--auth-file {args.auth_file}: no 'router' line (this router's credentials "
+                "towards the routers it connects to)"
+            )
         user, password = (own.user, own.password) if own else ("", "")
         acl = acl_config([c.user for c in users])
-    conf = router_config(listen, args.connect, dictionary_file=args.auth_file or "", user=user, password=password,
-                         acl=acl, tls=tls)
+    conf = router_config(
+        listen, args.connect, dictionary_file=args.auth_file or "", user=user, password=password, acl=acl, tls=tls
+    )
     try:
         session = zenoh.open(conf)
     except zenoh.ZError as exc:

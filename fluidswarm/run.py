@@ -24,17 +24,18 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from agent.launcher import Launcher, SwarmResult, run_swarm
-from agent.supervisor import stop_process
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.supervisor import stop_process
 from fluidswarm.failures import FailureInjector
 from fluidswarm.recording.progress import Progress
 
@@ -175,9 +176,9 @@ class RunKind(Protocol):
 
     kind: str
 
-    def drive(self, run: "Run") -> None: ...
+    def drive(self, run: Run) -> None: ...
 
-    def score(self, run: "Run") -> None: ...
+    def score(self, run: Run) -> None: ...
 
 
 class Run:
@@ -197,11 +198,16 @@ class Run:
         self._bar: Progress | None = None
         self._scratch: Path | None = None
 
-    def __enter__(self) -> "Run":
+    def __enter__(self) -> Run:
         o = self.options
         try:
-            self.launcher = Launcher(run=o.run, connect=o.connect, agent_timeout=o.neighbour_timeout,
-                                     auth_file=o.auth_file, commands=o.commands)
+            self.launcher = Launcher(
+                run=o.run,
+                connect=o.connect,
+                agent_timeout=o.neighbour_timeout,
+                auth_file=o.auth_file,
+                commands=o.commands,
+            )
         except ValueError as exc:  # a bad run name
             raise UserError(str(exc)) from None
         if o.out is not None:
@@ -251,7 +257,9 @@ class Run:
         self.coordinator = proc
         self.launcher.watch_coordinator(proc)
 
-    def record_to(self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None) -> Path | None:
+    def record_to(
+        self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None
+    ) -> Path | None:
         """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either)."""
         if path is None and self.options.out is None:
             return None
@@ -264,8 +272,9 @@ class Run:
         o, la = self.options, self.launcher
         self.plan = plan
         la.track_progress()
-        self.injector = FailureInjector(la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator,
-                                        spawn_late=self._spawn_late)
+        self.injector = FailureInjector(
+            la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
+        )
         if o.progress:
             self._bar = Progress(plan.steps, "step", rate_unit="steps")
 
@@ -277,9 +286,19 @@ class Run:
             for fn in self._on_start:
                 fn()
 
-        self.result = run_swarm(plan.setup, plan.steps, launcher=la, on_started=started, progress=self._progress,
-                                per_agent=plan.per_agent, ids=plan.ids, swarm_ids=plan.swarm_ids,
-                                startup_timeout=plan.startup_timeout, run_timeout=plan.run_timeout, **plan.sync.spec())
+        self.result = run_swarm(
+            plan.setup,
+            plan.steps,
+            launcher=la,
+            on_started=started,
+            progress=self._progress,
+            per_agent=plan.per_agent,
+            ids=plan.ids,
+            swarm_ids=plan.swarm_ids,
+            startup_timeout=plan.startup_timeout,
+            run_timeout=plan.run_timeout,
+            **plan.sync.spec(),
+        )
         return self.result
 
     def _spawn_late(self, count: int) -> list[int]:
@@ -287,8 +306,9 @@ class Run:
         p = self.plan
         at = p.joiners_at if p.joiners_at is not None else tuple(p.setup.states[:, :2].mean(axis=0))
         control = p.joiner_control if p.joiner_control is not None else p.setup.controls[0]
-        return self.launcher.spawn_joiners(count, at, control, p.setup.params, p.steps, robot=p.setup.robot.as_dict(),
-                                           **p.sync.spec())
+        return self.launcher.spawn_joiners(
+            count, at, control, p.setup.params, p.steps, robot=p.setup.robot.as_dict(), **p.sync.spec()
+        )
 
     def _progress(self) -> None:
         if self._bar is None:
@@ -304,23 +324,39 @@ class Run:
         log = self.injector.log if self.injector else None
         finals = dict(res.finals)
         return RunRecord(
-            name=o.name, kind=self.kind.kind, agents=len(res.ids), steps=plan.steps, sync=plan.sync.mode,
-            run=la.run, router=la.endpoint, finished=sum(1 for r in finals.values() if r.done),
-            steps_per_second=res.steps_per_second(), startup_seconds=res.startup_seconds,
-            wall_seconds=res.wall_seconds, msgs_per_agent_step=res.msgs_per_agent_step(),
-            neighbours_per_agent=res.neighbours_per_agent(), neighbour_timeout_seconds=la.agent_timeout,
+            name=o.name,
+            kind=self.kind.kind,
+            agents=len(res.ids),
+            steps=plan.steps,
+            sync=plan.sync.mode,
+            run=la.run,
+            router=la.endpoint,
+            finished=sum(1 for r in finals.values() if r.done),
+            steps_per_second=res.steps_per_second(),
+            startup_seconds=res.startup_seconds,
+            wall_seconds=res.wall_seconds,
+            msgs_per_agent_step=res.msgs_per_agent_step(),
+            neighbours_per_agent=res.neighbours_per_agent(),
+            neighbour_timeout_seconds=la.agent_timeout,
             longest_stall_seconds=la.pacer.longest_stall(),
-            failures=list(log.injected) if log else [], failures_killed=len(log.killed) if log else 0,
-            failures_frozen=len(log.frozen) if log else 0, failures_joined=len(log.joined) if log else 0,
-            mcap=str(self.mcap) if self.mcap else None, finals=finals, realtime_factor=la.pacer.realtime_factor(),
-            **robot_figures(self.mcap, plan.setup))
+            failures=list(log.injected) if log else [],
+            failures_killed=len(log.killed) if log else 0,
+            failures_frozen=len(log.frozen) if log else 0,
+            failures_joined=len(log.joined) if log else 0,
+            mcap=str(self.mcap) if self.mcap else None,
+            finals=finals,
+            realtime_factor=la.pacer.realtime_factor(),
+            **robot_figures(self.mcap, plan.setup),
+        )
 
     def _behind_real_time(self) -> None:
         """A real-time swarm that could not keep up says so, once, with the factor it reached."""
         f = self.record.realtime_factor
         if self.options.realtime and f is not None and f < REALTIME_KEPT:
-            note = (f"real time not kept: realtime_factor={f:.2f} ({self.record.agents} agents stepped "
-                    f"{f:.0%} as fast as the wall clock)")
+            note = (
+                f"real time not kept: realtime_factor={f:.2f} ({self.record.agents} agents stepped "
+                f"{f:.0%} as fast as the wall clock)"
+            )
             self.record.notes.append(note)
             print(f"fluidswarm: {note}", file=sys.stderr)
 
@@ -343,4 +379,3 @@ def busy_with_failures(run: Run) -> Callable[[], bool]:
     """True while the run's failures are still to come or just happened (a formation must not count as
     settled before they have all happened and the swarm had time to recover)."""
     return lambda: run.injector is None or run.injector.busy()
-

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from pathlib import Path
 
-from agent.sph.params import SPHParams
-from agent.sph.robot import POINT, RobotModel, robot_from
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES
+from agent.sph.params import SPHParams
+from agent.sph.robot import POINT, RobotModel, robot_from
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
 
 CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
@@ -162,14 +162,45 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: not valid TOML ({exc})") from None
     except RecursionError:  # arrays or inline tables nested deeper than tomllib's stack
         raise UserError(f"{file}: not valid TOML (nested too deep)") from None
-    top = {"name", "description", "experiment", "input", "frame", "frame_steps", "controller", "agents", "steps", "dt",
-           "seed", "sync", "async_rate", "async_max_age", "neighbour_timeout", "sph", "robot", "failures", "pass"}
+    top = {
+        "name",
+        "description",
+        "experiment",
+        "input",
+        "frame",
+        "frame_steps",
+        "controller",
+        "agents",
+        "steps",
+        "dt",
+        "seed",
+        "sync",
+        "async_rate",
+        "async_max_age",
+        "neighbour_timeout",
+        "sph",
+        "robot",
+        "failures",
+        "pass",
+    }
     _check_keys(file, "", raw, top)
     kw: dict = {"name": _typed(file, "name", raw.get("name", path.stem), str), "path": path}
-    for key, kind in (("description", str), ("experiment", str), ("input", str), ("controller", str),
-                      ("agents", int), ("steps", int), ("dt", float), ("seed", int), ("sync", str), ("frame", int),
-                      ("frame_steps", int), ("async_rate", float), ("async_max_age", float),
-                      ("neighbour_timeout", float)):
+    for key, kind in (
+        ("description", str),
+        ("experiment", str),
+        ("input", str),
+        ("controller", str),
+        ("agents", int),
+        ("steps", int),
+        ("dt", float),
+        ("seed", int),
+        ("sync", str),
+        ("frame", int),
+        ("frame_steps", int),
+        ("async_rate", float),
+        ("async_max_age", float),
+        ("neighbour_timeout", float),
+    ):
         if key in raw:
             kw[key] = _typed(file, key, raw[key], kind)
     if kw.get("experiment", Experiment.IMITATE) not in EXPERIMENTS:
@@ -206,8 +237,10 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: key 'sph': {exc}") from None
     for key in ("beta", "mu"):  # an accepted key must act: in an imitation the gesture command sets them
         if key in sph and kw.get("experiment", Experiment.IMITATE) == Experiment.IMITATE:
-            raise UserError(f"{file}: key 'sph.{key}': an imitation's stiffness and viscosity are set per class "
-                            f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)")
+            raise UserError(
+                f"{file}: key 'sph.{key}': an imitation's stiffness and viscosity are set per class "
+                f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)"
+            )
     kw["sph"] = sph
     kw["robot"] = scenario_robot(file, _typed(file, "robot", raw.get("robot", {}), dict))
     failures = []

@@ -9,11 +9,19 @@ from typing import TYPE_CHECKING
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.sph.robot import POINT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
-from agent.sph.robot import POINT
-from fluidswarm.scenario import SYNC_MODES, Failure, PassCriteria, Scenario, load_scenario, scenario_robot, scenarios_dir
+from fluidswarm.scenario import (
+    SYNC_MODES,
+    Failure,
+    PassCriteria,
+    Scenario,
+    load_scenario,
+    scenario_robot,
+    scenarios_dir,
+)
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
@@ -29,15 +37,32 @@ def register(sub) -> None:
     p.add_argument("--sync", choices=SYNC_MODES, help="override the scenario's synchronisation mode")
     g = p.add_argument_group("failure injection (added to the scenario's own)")
     g.add_argument("--kill", action="append", default=[], metavar="K@STEP", help="SIGKILL K agents at STEP")
-    g.add_argument("--freeze", action="append", default=[], metavar="K@STEP:SECONDS",
-                   help="SIGSTOP K agents at STEP for SECONDS, then SIGCONT")
-    g.add_argument("--drop", action="append", default=[], metavar="AGENT:FRACTION",
-                   help="agent AGENT drops FRACTION of its outgoing states")
-    g.add_argument("--kill-coordinator", action="append", default=[], type=int, metavar="STEP",
-                   help="SIGKILL the coordinator at STEP (agents keep the last command)")
+    g.add_argument(
+        "--freeze",
+        action="append",
+        default=[],
+        metavar="K@STEP:SECONDS",
+        help="SIGSTOP K agents at STEP for SECONDS, then SIGCONT",
+    )
+    g.add_argument(
+        "--drop",
+        action="append",
+        default=[],
+        metavar="AGENT:FRACTION",
+        help="agent AGENT drops FRACTION of its outgoing states",
+    )
+    g.add_argument(
+        "--kill-coordinator",
+        action="append",
+        default=[],
+        type=int,
+        metavar="STEP",
+        help="SIGKILL the coordinator at STEP (agents keep the last command)",
+    )
     g.add_argument("--late-join", action="append", default=[], metavar="K@STEP", help="start K extra agents at STEP")
-    g.add_argument("--compare", action="store_true",
-                   help="also run without failures (same seed) and print fidelity_ratio")
+    g.add_argument(
+        "--compare", action="store_true", help="also run without failures (same seed) and print fidelity_ratio"
+    )
     add_robot_argument(p)
     add_live_argument(p)
     add_json_argument(p)
@@ -104,8 +129,8 @@ def kind_for(sc: Scenario, agents: int):
         experiment_setup(sc, agents)  # its robots must fit it before anything starts
         return Experiment(sc, agents)
     from coordinator.control.imitation_setup import DEFAULT_STEPS
-    from fluidswarm.imitate import FileImitation
     from fluidswarm.experiment import scenario_sync
+    from fluidswarm.imitate import FileImitation
 
     path = sc.input_path()
     if path is None or not path.exists():
@@ -113,23 +138,34 @@ def kind_for(sc: Scenario, agents: int):
     drop = {f.agent: f.fraction for f in sc.failures if f.kind == "drop"}
     if any(a >= agents for a in drop):
         raise UserError(f"{sc.path}: key 'failures': drop names agent {max(drop)}, the swarm has ids 0..{agents - 1}")
-    return FileImitation(str(path), agents, sc.steps or DEFAULT_STEPS, sc.controller, None if sc.frame < 0 else sc.frame,
-                         sc.frame_steps, sc.sph, sc.dt, scenario_sync(sc), drop, robot=sc.robot)
+    return FileImitation(
+        str(path),
+        agents,
+        sc.steps or DEFAULT_STEPS,
+        sc.controller,
+        None if sc.frame < 0 else sc.frame,
+        sc.frame_steps,
+        sc.sph,
+        sc.dt,
+        scenario_sync(sc),
+        drop,
+        robot=sc.robot,
+    )
 
 
 def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
     """One run of the scenario with its failures, recorded in `out`."""
     from coordinator.control.fill import ShapeError
+    from fluidswarm.run import Run, RunOptions
     from perception.io import InputError
     from perception.segmentation import SegmentationError
-
-    from fluidswarm.run import Run, RunOptions
 
     kind = kind_for(sc, agents)
     imitation = sc.experiment == "imitate"
     timeout = sc.neighbour_timeout or (NEIGHBOUR_TIMEOUT.imitation if imitation else NEIGHBOUR_TIMEOUT.default)
-    options = RunOptions(sc.name, out, timeout, failures=sc.failures, seed=sc.seed, live=live, commands=imitation,
-                         progress=True)
+    options = RunOptions(
+        sc.name, out, timeout, failures=sc.failures, seed=sc.seed, live=live, commands=imitation, progress=True
+    )
     try:
         with Run(kind, options) as run:
             kind.drive(run)
@@ -159,9 +195,14 @@ def scenario_figures(r: RunRecord) -> dict:
 
     f: dict = {}
     if r.fidelity is not None:
-        f.update(fidelity_iou=r.fidelity.iou, fidelity_inside=r.fidelity.inside,
-                 fidelity_coverage=r.fidelity.coverage, nn_cv=r.fidelity.nn_cv,
-                 formation_seconds=r.formation_seconds, formation_wall_seconds=r.formation_wall_seconds)
+        f.update(
+            fidelity_iou=r.fidelity.iou,
+            fidelity_inside=r.fidelity.inside,
+            fidelity_coverage=r.fidelity.coverage,
+            nn_cv=r.fidelity.nn_cv,
+            formation_seconds=r.formation_seconds,
+            formation_wall_seconds=r.formation_wall_seconds,
+        )
     f.update({k: v for k, v in r.figures.items() if k not in ROBUSTNESS})
     f.update(longest_stall_seconds=r.longest_stall_seconds, neighbour_timeout_seconds=r.neighbour_timeout_seconds)
     f.update(robot_lines(r))
@@ -212,8 +253,14 @@ def _run(args) -> int:
     if extra or args.sync:
         sc = replace(sc, failures=sc.failures + tuple(extra), sync=args.sync or sc.sync)
     if args.robot is not None:
-        sc = replace(sc, robot=scenario_robot(str(sc.path), {k: v for k, v in sc.robot.as_dict().items() if k != "kind"}
-                                              if sc.robot != POINT else {}, args.robot))
+        sc = replace(
+            sc,
+            robot=scenario_robot(
+                str(sc.path),
+                {k: v for k, v in sc.robot.as_dict().items() if k != "kind"} if sc.robot != POINT else {},
+                args.robot,
+            ),
+        )
     out = Path(args.out or f"out/{sc.name}")
     return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live_from_args(args)))
 

@@ -49,12 +49,17 @@ def judge(sc: Scenario, record: RunRecord, out: Path, baseline: RunRecord | None
         need(got >= crit.min_branch_gap, f"branch_gap {got:.2f} < {crit.min_branch_gap}")
     if crit.min_fidelity_ratio:
         ratio = f.get("fidelity_ratio")
-        need(ratio is not None and ratio >= crit.min_fidelity_ratio, f"fidelity_ratio {ratio} < {crit.min_fidelity_ratio}")
+        need(
+            ratio is not None and ratio >= crit.min_fidelity_ratio,
+            f"fidelity_ratio {ratio} < {crit.min_fidelity_ratio}",
+        )
     if crit.max_stall_seconds:
         got = record.longest_stall_seconds
         need(got <= crit.max_stall_seconds, f"longest_stall_seconds {got:.2f} > {crit.max_stall_seconds}")
     if crit.min_finished:
-        need(f["finished_share"] >= crit.min_finished, f"finished_share {f['finished_share']:.2f} < {crit.min_finished}")
+        need(
+            f["finished_share"] >= crit.min_finished, f"finished_share {f['finished_share']:.2f} < {crit.min_finished}"
+        )
     if crit.complete_mcap:
         need(complete, f"MCAP incomplete ({missing} missing states)")
     return record

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import time
 
+from agent.protocol.errors import UserError
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import branching
-from agent.protocol.errors import UserError
 from fluidswarm.recording.render import plot_formation
 
 

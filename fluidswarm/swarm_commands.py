@@ -23,11 +23,17 @@ def register(sub) -> None:
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
     p.add_argument("--ids", help="start only this slice of the swarm on this host, e.g. 0-19 (multi-host)")
     p.add_argument("--run", help="run name (must match on every host of a split run)")
-    p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.default, help="s before a silent neighbour is dropped")
+    p.add_argument(
+        "--timeout", type=float, default=NEIGHBOUR_TIMEOUT.default, help="s before a silent neighbour is dropped"
+    )
     p.add_argument("--record", help="write the run to this MCAP file (passive recorder process)")
     _add_auth_file_argument(p)
-    p.add_argument("--mode", choices=("lockstep", "async"), default="lockstep",
-                   help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)")
+    p.add_argument(
+        "--mode",
+        choices=("lockstep", "async"),
+        default="lockstep",
+        help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)",
+    )
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
     add_live_argument(p)
@@ -39,7 +45,9 @@ def register(sub) -> None:
     p.add_argument("--agents", type=int, default=64)
     p.add_argument("--steps", type=int, default=300)
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
-    p.add_argument("--timeout", type=float, default=NEIGHBOUR_TIMEOUT.exact, help="s before a silent neighbour is dropped")
+    p.add_argument(
+        "--timeout", type=float, default=NEIGHBOUR_TIMEOUT.exact, help="s before a silent neighbour is dropped"
+    )
     p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
     _add_auth_file_argument(p)
@@ -51,10 +59,13 @@ def register(sub) -> None:
 def _add_auth_file_argument(p) -> None:
     # No --user/--password: a secret on the command line is readable by every local user (ps); the users
     # file (mode 0600) gives each process of this launcher its own role's line (docs/security.md).
-    p.add_argument("--auth-file", metavar="FILE",
-                   help="with --connect: the run's users file (user:password lines, the routers hold the same; "
-                        "default $FLUIDSWARM_AUTH_FILE); this launcher authenticates as 'launcher' and hands each "
-                        "process its own line")
+    p.add_argument(
+        "--auth-file",
+        metavar="FILE",
+        help="with --connect: the run's users file (user:password lines, the routers hold the same; "
+        "default $FLUIDSWARM_AUTH_FILE); this launcher authenticates as 'launcher' and hands each "
+        "process its own line",
+    )
 
 
 def _agent(args) -> int:
@@ -111,8 +122,9 @@ def _auth_file(args) -> str:
     if not args.auth_file:
         return ""
     if not args.connect:
-        raise UserError(f"--auth-file {args.auth_file}: needs --connect (an embedded router makes its own "
-                        "credentials for each run)")
+        raise UserError(
+            f"--auth-file {args.auth_file}: needs --connect (an embedded router makes its own credentials for each run)"
+        )
     try:
         users = read_users_file(args.auth_file)
     except AuthFileError as exc:
@@ -151,13 +163,22 @@ def _launch(args) -> int:
     options = _options(args, "launch", args.timeout)
     options.live = live_from_args(args)
     ids = parse_ids(args.ids, args.agents) if args.ids else None
-    kind = Block(args.agents, args.steps, Sync(args.mode, args.rate, args.max_age), ids, args.record,
-                 robot=robot_model(args.robot))
+    kind = Block(
+        args.agents,
+        args.steps,
+        Sync(args.mode, args.rate, args.max_age),
+        ids,
+        args.record,
+        robot=robot_model(args.robot),
+    )
     _check_block(kind)
     with Run(kind, options) as run:
         # the run's name and router come first, as they happen: the other hosts of a split run need them
-        print(f"run={run.launcher.run} router={run.launcher.endpoint}", flush=True,
-              file=sys.stderr if args.json else sys.stdout)
+        print(
+            f"run={run.launcher.run} router={run.launcher.endpoint}",
+            flush=True,
+            file=sys.stderr if args.json else sys.stdout,
+        )
         kind.drive(run)
     r = run.record
     if args.json:

@@ -36,7 +36,7 @@ from agent.protocol import ctl as ctl_mod
 from agent.protocol import events as ev_mod
 from agent.protocol import report as rep_mod
 from agent.protocol import wire
-from agent.protocol.access import ROLES, AuthFileError, _PASSWORD_RE, agent_id_of, read_users_file
+from agent.protocol.access import _PASSWORD_RE, ROLES, AuthFileError, agent_id_of, read_users_file
 from agent.protocol.errors import UserError
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.protocol.spec import AgentSpec
@@ -99,7 +99,9 @@ def _check_command(c: cmd_mod.GestureCommand) -> None:
         assert len(k.name) <= 64 and _in(k.share, 0, 1e6) and 1 <= len(k.route) <= cmd_mod.MAX_ROUTE
         for w in k.route:
             assert _in(w.x, -1e6, 1e6) and _in(w.y, -1e6, 1e6) and _in(w.r, 0, 1e6) and _in(w.s, 0, 1e6)
-            assert _in(w.alpha, 0, 1e4) and (w.beta is None or _in(w.beta, 0, 1e4)) and (w.mu is None or _in(w.mu, 0, 1e4))
+            assert (
+                _in(w.alpha, 0, 1e4) and (w.beta is None or _in(w.beta, 0, 1e4)) and (w.mu is None or _in(w.mu, 0, 1e4))
+            )
     if c.fill is not None:
         rings = c.fill.rings
         assert 1 <= len(rings) <= cmd_mod.MAX_RINGS and sum(map(len, rings)) <= cmd_mod.MAX_VERTICES

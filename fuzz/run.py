@@ -59,10 +59,21 @@ def _write_seeds(corpus: Path, seeds: list[bytes]) -> None:
 def _build_rust() -> Path:
     """Build every Rust target (cargo fuzz builds all or one); the directory of their binaries."""
     # cargo fuzz has no --locked: check first that the committed Cargo.lock resolves as it is
-    subprocess.run([CARGO, TOOLCHAIN, "metadata", "--locked", "--format-version", "1", "--manifest-path",
-                    str(FUZZ_DIR / "Cargo.toml")], check=True, stdout=subprocess.DEVNULL)
-    subprocess.run([CARGO, TOOLCHAIN, "fuzz", "build", "--release", "--debug-assertions"], cwd=NATIVE,
-                   check=True)
+    subprocess.run(
+        [
+            CARGO,
+            TOOLCHAIN,
+            "metadata",
+            "--locked",
+            "--format-version",
+            "1",
+            "--manifest-path",
+            str(FUZZ_DIR / "Cargo.toml"),
+        ],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+    subprocess.run([CARGO, TOOLCHAIN, "fuzz", "build", "--release", "--debug-assertions"], cwd=NATIVE, check=True)
     rustc = str(Path(CARGO).with_name("rustc"))
     about = subprocess.run([rustc, TOOLCHAIN, "-vV"], capture_output=True, text=True, check=True).stdout
     host = next(line.split()[1] for line in about.splitlines() if line.startswith("host:"))
@@ -76,16 +87,29 @@ def _run(label: str, cmd: list[str], seconds: int, artifacts: Path, log: Path) -
     artifacts.mkdir(parents=True)
     t0 = time.monotonic()
     with open(log, "wb") as out:
-        proc = subprocess.run([*cmd, f"-max_total_time={seconds}", "-print_final_stats=1", "-timeout=30",
-                               "-rss_limit_mb=2048", f"-artifact_prefix={artifacts}/"],
-                              stdout=out, stderr=subprocess.STDOUT, timeout=seconds + 300)
+        proc = subprocess.run(
+            [
+                *cmd,
+                f"-max_total_time={seconds}",
+                "-print_final_stats=1",
+                "-timeout=30",
+                "-rss_limit_mb=2048",
+                f"-artifact_prefix={artifacts}/",
+            ],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            timeout=seconds + 300,
+        )
     text = log.read_bytes()
     m = _EXECUTED.findall(text) or [d[0] for d in _DONE.findall(text)]
     inputs = int(m[-1]) if m else 0
     crashes = len(list(artifacts.iterdir()))
     ok = proc.returncode == 0 and crashes == 0
-    print(f"fuzz target={label} inputs={inputs} seconds={time.monotonic() - t0:.0f} crashes={crashes}"
-          + ("" if ok else f" exit={proc.returncode} log={log} artifacts={artifacts}"), flush=True)
+    print(
+        f"fuzz target={label} inputs={inputs} seconds={time.monotonic() - t0:.0f} crashes={crashes}"
+        + ("" if ok else f" exit={proc.returncode} log={log} artifacts={artifacts}"),
+        flush=True,
+    )
     return inputs, crashes, ok
 
 
@@ -118,14 +142,27 @@ def main(argv: list[str]) -> int:
         for name in rust:
             corpus = FUZZ_DIR / "corpus" / f"rust_{name}"
             _write_seeds(corpus, seeds.RUST[name]())
-            results.append(_run(f"rust/{name}", [str(out_dir / name), str(corpus)], args.seconds,
-                                FUZZ_DIR / "artifacts" / f"rust_{name}", logs / f"rust_{name}.log"))
+            results.append(
+                _run(
+                    f"rust/{name}",
+                    [str(out_dir / name), str(corpus)],
+                    args.seconds,
+                    FUZZ_DIR / "artifacts" / f"rust_{name}",
+                    logs / f"rust_{name}.log",
+                )
+            )
     for name in python:
         corpus = FUZZ_DIR / "corpus" / f"python_{name}"
         _write_seeds(corpus, seeds.PYTHON[name]())
-        results.append(_run(f"python/{name}", [sys.executable, str(Path(__file__).resolve()), "--atheris", name,
-                                               str(corpus)], args.seconds,
-                            FUZZ_DIR / "artifacts" / f"python_{name}", logs / f"python_{name}.log"))
+        results.append(
+            _run(
+                f"python/{name}",
+                [sys.executable, str(Path(__file__).resolve()), "--atheris", name, str(corpus)],
+                args.seconds,
+                FUZZ_DIR / "artifacts" / f"python_{name}",
+                logs / f"python_{name}.log",
+            )
+        )
     failed = sum(not ok for _, _, ok in results)
     print(f"fuzz targets={len(results)} inputs={sum(i for i, _, _ in results)} failed={failed}")
     return 1 if failed else 0

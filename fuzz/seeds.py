@@ -23,8 +23,10 @@ def state() -> list[bytes]:
 
 
 def ctl() -> list[bytes]:
-    return [bytes([WHATS.index(v["what"]) if v["what"] in WHATS else 7]) + bytes.fromhex(v["payload_hex"])
-            for v in _json("ctl.json")]
+    return [
+        bytes([WHATS.index(v["what"]) if v["what"] in WHATS else 7]) + bytes.fromhex(v["payload_hex"])
+        for v in _json("ctl.json")
+    ]
 
 
 def command() -> list[bytes]:
@@ -33,7 +35,7 @@ def command() -> list[bytes]:
         payloads += [bytes.fromhex(s["offer_hex"]) for s in seq["steps"] if "offer_hex" in s]
     out = [b"\0" + p for p in payloads]
     # the bodies of the envelopes `encode` lays out, for the harness to sign (first byte odd)
-    out += [b"\1" + p[len(HEAD):-_TAIL] for p in payloads if p.startswith(HEAD) and len(p) > len(HEAD) + _TAIL]
+    out += [b"\1" + p[len(HEAD) : -_TAIL] for p in payloads if p.startswith(HEAD) and len(p) > len(HEAD) + _TAIL]
     return out
 
 
@@ -43,22 +45,55 @@ def event() -> list[bytes]:
 
 def report() -> list[bytes]:
     state = [1.5, -2.0, 0.25, 0.0, 998.0, 3.0, 0.1, -0.2, 0.3, 0.0]
-    base = {"v": 1, "id": 7, "status": "done", "steps": 12, "state": state, "msgs_received": 3, "neighbours": 40,
-            "rejected": {"length": 1, "value": 2}, "timeouts": 0, "deaths_seen": 0, "stale": 1, "dropped_out": 0,
-            "lost": 0, "t_start": 1.0, "t_end": None, "session_opened_at": 0.5, "rss_mb": 9.0, "cpu_seconds": 0.25,
-            "cpu_seconds_at_start": None, "agent": "native"}
-    follower = {"commands_accepted": 2, "particle_class": 1, "waypoint_index": 0, "command_seq": 5,
-                "first_command_at": 2.5}
+    base = {
+        "v": 1,
+        "id": 7,
+        "status": "done",
+        "steps": 12,
+        "state": state,
+        "msgs_received": 3,
+        "neighbours": 40,
+        "rejected": {"length": 1, "value": 2},
+        "timeouts": 0,
+        "deaths_seen": 0,
+        "stale": 1,
+        "dropped_out": 0,
+        "lost": 0,
+        "t_start": 1.0,
+        "t_end": None,
+        "session_opened_at": 0.5,
+        "rss_mb": 9.0,
+        "cpu_seconds": 0.25,
+        "cpu_seconds_at_start": None,
+        "agent": "native",
+    }
+    follower = {
+        "commands_accepted": 2,
+        "particle_class": 1,
+        "waypoint_index": 0,
+        "command_seq": 5,
+        "first_command_at": 2.5,
+    }
     return [json.dumps(base).encode(), json.dumps({**base, **follower, "status": "fell_behind"}).encode()]
 
 
 def spec() -> list[bytes]:
     from agent.protocol.spec import AgentSpec
 
-    full = AgentSpec(run="r1", id=3, connect=["tcp/127.0.0.1:7447"], steps=10, initial=[1.0, 2.0, 0.5, 0.0],
-                     control={"wx": 1.0, "wy": 2.0, "r": 0.5, "s": 2.0, "alpha": 0.5, "beta": 2.0, "mu": 0.1},
-                     params={"h": 1.0, "dt": 0.02, "domain": [0, 10, 0, 10], "border": "reflect"},
-                     secret="00ff", join=True, state_key_ids=True, mode="async", neighbours=[[4, 2.5, 3.0]])
+    full = AgentSpec(
+        run="r1",
+        id=3,
+        connect=["tcp/127.0.0.1:7447"],
+        steps=10,
+        initial=[1.0, 2.0, 0.5, 0.0],
+        control={"wx": 1.0, "wy": 2.0, "r": 0.5, "s": 2.0, "alpha": 0.5, "beta": 2.0, "mu": 0.1},
+        params={"h": 1.0, "dt": 0.02, "domain": [0, 10, 0, 10], "border": "reflect"},
+        secret="00ff",
+        join=True,
+        state_key_ids=True,
+        mode="async",
+        neighbours=[[4, 2.5, 3.0]],
+    )
     short = AgentSpec(run="r-2", id=0, connect=["tcp/10.0.0.1:7447"], steps=0, initial=[0, 0, 0, 0])
     return [full.to_json().encode(), short.to_json().encode()]
 
@@ -66,8 +101,18 @@ def spec() -> list[bytes]:
 def keys() -> list[bytes]:
     from agent.protocol import keys as k
 
-    return [s.encode() for s in (k.state_key("r1", 7), k.alive_key("r1", 12), k.cell_key("r1", -1, 2),
-                                 "fluidswarm/r1/ctl/stop", "fluidswarm/r1/ctl/*", k.id_chunk(8191), "r1")]
+    return [
+        s.encode()
+        for s in (
+            k.state_key("r1", 7),
+            k.alive_key("r1", 12),
+            k.cell_key("r1", -1, 2),
+            "fluidswarm/r1/ctl/stop",
+            "fluidswarm/r1/ctl/*",
+            k.id_chunk(8191),
+            "r1",
+        )
+    ]
 
 
 def scenario() -> list[bytes]:
@@ -75,8 +120,16 @@ def scenario() -> list[bytes]:
 
 
 def users() -> list[bytes]:
-    lines = ["# multi-host users", "launcher:launcher-pass-1", "coordinator:c00rdinator!", "recorder:rec0rder~~",
-             "router:r0uter-pw", "agent-0:agent0-pass", "agent-8191:agent8191pw", ""]
+    lines = [
+        "# multi-host users",
+        "launcher:launcher-pass-1",
+        "coordinator:c00rdinator!",
+        "recorder:rec0rder~~",
+        "router:r0uter-pw",
+        "agent-0:agent0-pass",
+        "agent-8191:agent8191pw",
+        "",
+    ]
     return ["\n".join(lines).encode(), b"launcher:12345678\n"]
 
 
@@ -113,10 +166,10 @@ def _uncompressed(path: Path, plain: Path) -> bytes:
             if schema.id not in schemas:
                 schemas[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
             if channel.id not in channels:
-                channels[channel.id] = w.register_channel(channel.topic, channel.message_encoding,
-                                                          schemas[schema.id], channel.metadata)
-            w.add_message(channels[channel.id], message.log_time, message.data, message.publish_time,
-                          message.sequence)
+                channels[channel.id] = w.register_channel(
+                    channel.topic, channel.message_encoding, schemas[schema.id], channel.metadata
+                )
+            w.add_message(channels[channel.id], message.log_time, message.data, message.publish_time, message.sequence)
         w.finish()
     return plain.read_bytes()
 
@@ -124,5 +177,14 @@ def _uncompressed(path: Path, plain: Path) -> bytes:
 # Which seeds each target starts from: Rust targets (agent/native/fuzz/fuzz_targets/) and Python ones
 # (fuzz/python_targets.py) of the same decoder share them.
 RUST = {"wire": state, "ctl": ctl, "command": command, "spec": spec, "keys": keys}
-PYTHON = {"state": state, "ctl": ctl, "command": command, "event": event, "report": report, "spec": spec,
-          "scenario": scenario, "users": users, "mcap": mcap}
+PYTHON = {
+    "state": state,
+    "ctl": ctl,
+    "command": command,
+    "event": event,
+    "report": report,
+    "spec": spec,
+    "scenario": scenario,
+    "users": users,
+    "mcap": mcap,
+}

@@ -40,10 +40,15 @@ class GestureANN:
     x_scale: np.ndarray  # (6,)
 
     @classmethod
-    def initial(cls, n_out: int = len(OUTPUTS), seed: int = 0) -> "GestureANN":
+    def initial(cls, n_out: int = len(OUTPUTS), seed: int = 0) -> GestureANN:
         rng = np.random.default_rng(seed)
-        return cls(rng.normal(0, 0.5, (N_IN, N_HIDDEN)), np.zeros(N_HIDDEN), rng.normal(0, 0.5, (N_HIDDEN, n_out)),
-                   np.zeros(n_out), np.ones(N_IN))
+        return cls(
+            rng.normal(0, 0.5, (N_IN, N_HIDDEN)),
+            np.zeros(N_HIDDEN),
+            rng.normal(0, 0.5, (N_HIDDEN, n_out)),
+            np.zeros(n_out),
+            np.ones(N_IN),
+        )
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """Body-force command(s) for feature vector(s) x: (6,) -> (n_out,), (N, 6) -> (N, n_out)."""
@@ -62,7 +67,7 @@ class GestureANN:
         i = 0
         for name, shape in (("w1", (N_IN, N_HIDDEN)), ("b1", (N_HIDDEN,)), ("w2", (N_HIDDEN, n_out)), ("b2", (n_out,))):
             size = int(np.prod(shape))
-            setattr(self, name, p[i:i + size].reshape(shape).copy())
+            setattr(self, name, p[i : i + size].reshape(shape).copy())
             i += size
 
     def fit(self, x: np.ndarray, y: np.ndarray, decay: float = 1e-4, restarts: int = 5) -> float:
@@ -81,10 +86,10 @@ class GestureANN:
             g_out = 2 * err / (n * y.shape[1])
             gw2 = h.T @ g_out + 2 * decay * self.w2
             gb2 = g_out.sum(0)
-            gh = g_out @ self.w2.T * (1 - h ** 2)
+            gh = g_out @ self.w2.T * (1 - h**2)
             gw1 = xs.T @ gh + 2 * decay * self.w1
             gb1 = gh.sum(0)
-            val = float((err ** 2).mean() + decay * ((self.w1 ** 2).sum() + (self.w2 ** 2).sum()))
+            val = float((err**2).mean() + decay * ((self.w1**2).sum() + (self.w2**2).sum()))
             return val, np.concatenate([gw1.ravel(), gb1, gw2.ravel(), gb2])
 
         best = None
@@ -98,11 +103,10 @@ class GestureANN:
 
     # -- persistence ---------------------------------------------------------------------------------
     def save(self, path: str | Path) -> None:
-        np.savez(path, w1=self.w1, b1=self.b1, w2=self.w2, b2=self.b2, x_scale=self.x_scale,
-                 outputs=np.array(OUTPUTS))
+        np.savez(path, w1=self.w1, b1=self.b1, w2=self.w2, b2=self.b2, x_scale=self.x_scale, outputs=np.array(OUTPUTS))
 
     @classmethod
-    def load(cls, path: str | Path = WEIGHTS_PATH) -> "GestureANN":
+    def load(cls, path: str | Path = WEIGHTS_PATH) -> GestureANN:
         path = Path(path)
         if not path.is_file():
             raise InputError(f"{path}: no such network file")
@@ -123,6 +127,7 @@ def load_training(path: str | Path = TRAINING_PATH) -> tuple[np.ndarray, np.ndar
 
 
 # -- the training set ----------------------------------------------------------------------------------
+
 
 def _target(fv: np.ndarray) -> list[float]:
     """Our body-force rule per template (documented in docs/perception.md, from thesis §3.4):
@@ -149,11 +154,13 @@ def build_training_set() -> list[dict]:
     import cv2
 
     pairs = []
-    for fv, src in (([1, 0, 0, 0, 0, 0], "thesis §3.4.1 horizontal pointing, fv [1 0 0 0 0 0], force [2 0]"),
-                    ([0, 0, 1, 0, 0, 0.5], "thesis §3.4.3 separation of fingers, fv [0 0 1 0 0 b], b = 0.5"),
-                    ([1, 0, 0, 0, 1, 0.3], "thesis §3.4.4 pinching, fv [1 0 0 0 1 ap], ap = 0.3"),
-                    ([0, 0, 0, 1, 1, 0.2], "thesis §3.2 Fig. 3.3a pinching fingers, fv [0 0 0 1 1 ap1], ap1 = 0.2"),
-                    ([0, 1, 0, 0, 0, 0.3], "thesis §3.2 Fig. 3.2b U shape, fv [0 1 0 0 0 a], a = 0.3")):
+    for fv, src in (
+        ([1, 0, 0, 0, 0, 0], "thesis §3.4.1 horizontal pointing, fv [1 0 0 0 0 0], force [2 0]"),
+        ([0, 0, 1, 0, 0, 0.5], "thesis §3.4.3 separation of fingers, fv [0 0 1 0 0 b], b = 0.5"),
+        ([1, 0, 0, 0, 1, 0.3], "thesis §3.4.4 pinching, fv [1 0 0 0 1 ap], ap = 0.3"),
+        ([0, 0, 0, 1, 1, 0.2], "thesis §3.2 Fig. 3.3a pinching fingers, fv [0 0 0 1 1 ap1], ap1 = 0.2"),
+        ([0, 1, 0, 0, 0, 0.3], "thesis §3.2 Fig. 3.2b U shape, fv [0 1 0 0 0 a], a = 0.3"),
+    ):
         pairs.append({"features": fv, "force": [round(v, 4) for v in _target(np.array(fv, float))], "source": src})
     n = 160
     for t in (8, 14):
@@ -192,11 +199,19 @@ def train_shipped() -> tuple[GestureANN, float]:
     """Rebuild ann_training.json from the drawn templates and the thesis examples, train, save the weights."""
     DATA.mkdir(exist_ok=True)
     pairs = build_training_set()
-    TRAINING_PATH.write_text(json.dumps({
-        "about": "I/O pairs of the gesture ANN (perception/ann.py): 6-entry skeleton feature vector -> "
-                 "body-force command [F_along, F_split]. 'source' says where each pair comes from; the force "
-                 "rule is perception.ann._target. Regenerate with: python -m perception.ann",
-        "outputs": list(OUTPUTS), "pairs": pairs}, indent=1) + "\n")
+    TRAINING_PATH.write_text(
+        json.dumps(
+            {
+                "about": "I/O pairs of the gesture ANN (perception/ann.py): 6-entry skeleton feature vector -> "
+                "body-force command [F_along, F_split]. 'source' says where each pair comes from; the force "
+                "rule is perception.ann._target. Regenerate with: python -m perception.ann",
+                "outputs": list(OUTPUTS),
+                "pairs": pairs,
+            },
+            indent=1,
+        )
+        + "\n"
+    )
     x, y, _ = load_training()
     net = GestureANN.initial()
     mse = net.fit(x, y)

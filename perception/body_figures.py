@@ -21,9 +21,12 @@ TORSO_MIN_MAJOR = 18.0  # pixels
 
 def head_error(silhouette: np.ndarray, head_x: int, head_top: int) -> float:
     """See the module docstring; inf when the silhouette misses the head's column near the label."""
-    cols = silhouette[:, max(0, head_x - 1):head_x + 2].any(axis=1)
-    near = [r for r in range(head_top - HEAD_FEET_TOLERANCE, head_top + HEAD_FEET_TOLERANCE + 1)
-            if 0 <= r < len(cols) and cols[r]]
+    cols = silhouette[:, max(0, head_x - 1) : head_x + 2].any(axis=1)
+    near = [
+        r
+        for r in range(head_top - HEAD_FEET_TOLERANCE, head_top + HEAD_FEET_TOLERANCE + 1)
+        if 0 <= r < len(cols) and cols[r]
+    ]
     if not near:
         return float("inf")
     r = near[0]
@@ -43,5 +46,10 @@ def tilt_from_vertical(e: Ellipse) -> float:
 
 def torso_upright(torso: Ellipse | None, head: Ellipse | None) -> bool:
     """Torso ellipse within TORSO_MAX_TILT of vertical, at least TORSO_MIN_MAJOR long, centre below the head's."""
-    return (torso is not None and head is not None and tilt_from_vertical(torso) <= TORSO_MAX_TILT
-            and torso.l_major >= TORSO_MIN_MAJOR and torso.y_c > head.y_c)
+    return (
+        torso is not None
+        and head is not None
+        and tilt_from_vertical(torso) <= TORSO_MAX_TILT
+        and torso.l_major >= TORSO_MIN_MAJOR
+        and torso.y_c > head.y_c
+    )

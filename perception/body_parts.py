@@ -76,7 +76,7 @@ def body_axis(silhouette: np.ndarray) -> int:
 def head_top(silhouette: np.ndarray, axis: int, gap_share: float = 0.08) -> int:
     """Where the silhouette ends, followed upwards along the axis (3 columns) from its centroid row; gaps of
     up to gap_share of the silhouette's height are crossed (a wall-coloured belt or midriff)."""
-    cols = silhouette[:, max(0, axis - 1):axis + 2].any(axis=1)
+    cols = silhouette[:, max(0, axis - 1) : axis + 2].any(axis=1)
     ys = np.nonzero(silhouette)[0]
     gap = max(2, int(round(gap_share * (ys.max() - ys.min() + 1))))
     r = int(round(ys.mean()))
@@ -105,7 +105,7 @@ def _run_through(row: np.ndarray, col: int) -> np.ndarray:
         left -= 1
     while right < len(row) - 1 and row[right + 1]:
         right += 1
-    out[left:right + 1] = True
+    out[left : right + 1] = True
     return out
 
 
@@ -117,8 +117,9 @@ def _largest(mask: np.ndarray, min_area: int) -> np.ndarray | None:
     return labels == i if stats[i, cv2.CC_STAT_AREA] >= min_area else None
 
 
-def split_body(silhouette: np.ndarray, moving: np.ndarray | None = None,
-               shares: BodyShares = BodyShares()) -> BodyParts:
+def split_body(
+    silhouette: np.ndarray, moving: np.ndarray | None = None, shares: BodyShares = BodyShares()
+) -> BodyParts:
     """Head, torso (with legs), left and right arm of a standing person's silhouette (see the module
     docstring); `moving`: the frame's moving pixels, if it is a clip's frame (arms are then what moves)."""
     sil = np.asarray(silhouette, bool)
@@ -130,18 +131,20 @@ def split_body(silhouette: np.ndarray, moving: np.ndarray | None = None,
     height = bottom - top + 1
     r_shoulders = top + max(2, int(round(shares.shoulder_share * height)))
     r_hips = top + int(round(shares.hip_share * height))
-    waist = [int(_run_through(sil[r], axis).sum()) for r in range(top + int(shares.waist_rows[0] * height),
-                                                                   top + int(shares.waist_rows[1] * height) + 1)]
+    waist = [
+        int(_run_through(sil[r], axis).sum())
+        for r in range(top + int(shares.waist_rows[0] * height), top + int(shares.waist_rows[1] * height) + 1)
+    ]
     half = float(np.median(waist)) / 2 if waist else 0.0
     half = max(2, int(round(np.clip(half, shares.torso_half_min * height, shares.torso_half_max * height))))
     head_half = max(1, int(round(shares.head_half_share * height)))
     head = np.zeros_like(sil)
     for r in range(top, min(r_shoulders, bottom + 1)):
         head[r] = _run_through(sil[r], axis)
-    head[:, :max(0, axis - head_half)] = False
-    head[:, axis + head_half + 1:] = False
+    head[:, : max(0, axis - head_half)] = False
+    head[:, axis + head_half + 1 :] = False
     band = np.zeros_like(sil)
-    band[r_shoulders:r_hips, max(0, axis - half):axis + half + 1] = True
+    band[r_shoulders:r_hips, max(0, axis - half) : axis + half + 1] = True
     torso = sil & band
     torso[r_hips:] = sil[r_hips:]
     rest = sil & ~head & ~torso

@@ -18,13 +18,21 @@ COMPONENTS = (5, 15, 30, 35, 50, 100)
 
 
 def register(sub) -> None:
-    p = sub.add_parser("eval-classifier", help="eigen-image classifier: recognition rate vs components, times, confusion")
-    p.add_argument("--train", help="folder with one sub-folder per class (default: the documented split of the shared set)")
+    p = sub.add_parser(
+        "eval-classifier", help="eigen-image classifier: recognition rate vs components, times, confusion"
+    )
+    p.add_argument(
+        "--train", help="folder with one sub-folder per class (default: the documented split of the shared set)"
+    )
     p.add_argument("--test", help="folder with one sub-folder per class (the same class names as --train)")
     p.add_argument("--classes", help="comma-separated class folder names, e.g. 0,1,2,4,5 (default: all)")
-    p.add_argument("--method", choices=["eigen", "best", "baseline"], default="best",
-                   help="the method whose accuracy is the last line (both are reported): eigen = the thesis' "
-                        "eigen-image method (also called baseline), best = hand HOG + SVM")
+    p.add_argument(
+        "--method",
+        choices=["eigen", "best", "baseline"],
+        default="best",
+        help="the method whose accuracy is the last line (both are reported): eigen = the thesis' "
+        "eigen-image method (also called baseline), best = hand HOG + SVM",
+    )
     p.set_defaults(func=_eval)
     p = sub.add_parser("perceive", help="hand photograph or person video: print what was found, draw it")
     p.add_argument("input", help="image file, folder of frames, video file, or Weizmann strip PNG")
@@ -87,15 +95,19 @@ def _eval(args) -> int:
                 t_pred = time.perf_counter() - t0
                 acc = float((pred == yte).mean())
                 results[(method, k)] = (acc, t_feat + t_fit, t_feat_test + t_pred, pred, c_feat + c_fit)
-                print(f"  components={k:4d}  rate={acc:.3f}  correct={int((pred == yte).sum())}/{len(yte)}  "
-                      f"train_s={t_feat + t_fit:.2f}  test_s={t_feat_test + t_pred:.2f}")
+                print(
+                    f"  components={k:4d}  rate={acc:.3f}  correct={int((pred == yte).sum())}/{len(yte)}  "
+                    f"train_s={t_feat + t_fit:.2f}  test_s={t_feat_test + t_pred:.2f}"
+                )
         for method in ("eigen", "best"):
             print(f"{method}_accuracy={results[(method, DEFAULT_COMPONENTS[method])][0]:.4f}")
         clf = EigenClassifier(method_asked)
         k = clf.default_components()
         acc, t_train, t_test, pred, cpu_train = results[(method_asked, k)]
-        print(f"\n{method_asked} at {k} components: training {t_train:.2f} s (cpu {cpu_train:.2f} s), "
-              f"testing {t_test:.2f} s ({1000 * t_test / max(len(yte), 1):.2f} ms/image) (Table 4.2)")
+        print(
+            f"\n{method_asked} at {k} components: training {t_train:.2f} s (cpu {cpu_train:.2f} s), "
+            f"testing {t_test:.2f} s ({1000 * t_test / max(len(yte), 1):.2f} ms/image) (Table 4.2)"
+        )
         print("confusion matrix (rows: true, columns: predicted): " + " ".join(names))
         cm = np.zeros((len(names), len(names)), dtype=int)
         np.add.at(cm, (yte, pred), 1)

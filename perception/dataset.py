@@ -47,16 +47,19 @@ def class_folders(root: str | Path, classes: list[str] | None = None) -> list[st
     names = sorted((p.name for p in entries if p.is_dir()), key=_sort_key)
     stray = sorted(p.name for p in entries if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
     if stray:
-        raise InputError(f"{root}: unknown class folder layout: images ({stray[0]}, ...) next to the class "
-                         "folders; expected one sub-folder per class")
+        raise InputError(
+            f"{root}: unknown class folder layout: images ({stray[0]}, ...) next to the class "
+            "folders; expected one sub-folder per class"
+        )
     if classes is not None:
         missing = [c for c in classes if c not in names]
         if missing:
             raise InputError(f"{root}: no class folder {missing[0]!r}")
         names = [c for c in names if c in classes]
     if len(names) < 2:
-        raise InputError(f"{root}: unknown class folder layout: expected one sub-folder per class "
-                         f"(at least 2), found {len(names)}")
+        raise InputError(
+            f"{root}: unknown class folder layout: expected one sub-folder per class (at least 2), found {len(names)}"
+        )
     for c in names:
         if not any(p.suffix.lower() in IMAGE_SUFFIXES for p in (root / c).iterdir() if p.is_file()):
             raise InputError(f"{root / c}: unknown class folder layout: class folder holds no images")

@@ -83,7 +83,9 @@ class EigenClassifier:
     psi: np.ndarray | None = field(default=None, repr=False)
     eigenimages: np.ndarray | None = field(default=None, repr=False)
     eigenvalues: np.ndarray | None = field(default=None, repr=False)
-    projection: np.ndarray | None = field(default=None, repr=False)  # identity (the eigen weights are the decision space)
+    projection: np.ndarray | None = field(
+        default=None, repr=False
+    )  # identity (the eigen weights are the decision space)
     train_weights: np.ndarray | None = field(default=None, repr=False)
     train_labels: np.ndarray | None = field(default=None, repr=False)
     svm: dict | None = field(default=None, repr=False)  # best: support vectors, coefficients, gamma, classes
@@ -110,16 +112,16 @@ class EigenClassifier:
     def default_components(self) -> int:
         return DEFAULT_COMPONENTS[self.method]
 
-    def fit(self, images: list[np.ndarray] | None, labels, features: np.ndarray | None = None) -> "EigenClassifier":
+    def fit(self, images: list[np.ndarray] | None, labels, features: np.ndarray | None = None) -> EigenClassifier:
         """Train on images (or on their precomputed `features(images)`) with one label each."""
         return self.fit_features(self.features(images) if features is None else features, labels)
 
-    def fit_features(self, x: np.ndarray, labels) -> "EigenClassifier":
+    def fit_features(self, x: np.ndarray, labels) -> EigenClassifier:
         # One BLAS thread: for these small matrices on 2 shared cores, threaded BLAS only adds overhead.
         with threadpool_limits(1):
             return self._fit_features(x, labels)
 
-    def _fit_features(self, x: np.ndarray, labels) -> "EigenClassifier":
+    def _fit_features(self, x: np.ndarray, labels) -> EigenClassifier:
         y = np.asarray(labels)
         if len(x) != len(y) or len(y) < 2:
             raise ValueError(f"need >= 2 images with one label each (got {len(x)} images, {len(y)} labels)")
@@ -148,7 +150,7 @@ class EigenClassifier:
             return svm_predict(self.svm, x)
         omega = self.weights(x)
         tw = self.train_weights.astype(np.float64)
-        d2 = (omega ** 2).sum(1)[:, None] - 2 * omega @ tw.T + (tw ** 2).sum(1)[None, :]
+        d2 = (omega**2).sum(1)[:, None] - 2 * omega @ tw.T + (tw**2).sum(1)[None, :]
         k = min(self.n_neighbours, len(tw))
         nearest = np.argsort(d2, axis=1)[:, :k]
         classes = np.unique(self.train_labels)
@@ -156,8 +158,9 @@ class EigenClassifier:
         for row, idx in zip(d2, nearest):
             votes = np.array([np.sum(self.train_labels[idx] == c) for c in classes], float)
             # ties: the class with the smaller summed distance among its voters wins
-            dist = np.array([row[idx][self.train_labels[idx] == c].sum() if votes[i] else np.inf
-                             for i, c in enumerate(classes)])
+            dist = np.array(
+                [row[idx][self.train_labels[idx] == c].sum() if votes[i] else np.inf for i, c in enumerate(classes)]
+            )
             best = np.lexsort((dist, -votes))[0]
             labels.append(classes[best])
             conf.append(votes[best] / k)
@@ -184,14 +187,22 @@ class EigenClassifier:
         if self.psi is None:
             raise ValueError("the classifier is not trained")
         np.savez_compressed(
-            path, version=np.int64(FORMAT_VERSION), method=np.str_(self.method),
-            n_components=np.int64(self.n_components), n_neighbours=np.int64(self.n_neighbours),
-            psi=self.psi.astype(np.float32), eigenimages=self.eigenimages.astype(np.float32),
-            eigenvalues=self.eigenvalues, projection=self.projection, train_weights=self.train_weights,
-            train_labels=self.train_labels, **{f"svm_{k}": v for k, v in (self.svm or {}).items()})
+            path,
+            version=np.int64(FORMAT_VERSION),
+            method=np.str_(self.method),
+            n_components=np.int64(self.n_components),
+            n_neighbours=np.int64(self.n_neighbours),
+            psi=self.psi.astype(np.float32),
+            eigenimages=self.eigenimages.astype(np.float32),
+            eigenvalues=self.eigenvalues,
+            projection=self.projection,
+            train_weights=self.train_weights,
+            train_labels=self.train_labels,
+            **{f"svm_{k}": v for k, v in (self.svm or {}).items()},
+        )
 
     @classmethod
-    def load(cls, path: str | Path) -> "EigenClassifier":
+    def load(cls, path: str | Path) -> EigenClassifier:
         path = Path(path)
         if not path.is_file():
             raise InputError(f"{path}: no such model file")
@@ -199,8 +210,9 @@ class EigenClassifier:
             with np.load(path, allow_pickle=False) as z:
                 if int(z["version"]) != FORMAT_VERSION:
                     raise InputError(f"{path}: model format {int(z['version'])}, expected {FORMAT_VERSION}")
-                clf = cls(method=str(z["method"]), n_components=int(z["n_components"]),
-                          n_neighbours=int(z["n_neighbours"]))
+                clf = cls(
+                    method=str(z["method"]), n_components=int(z["n_components"]), n_neighbours=int(z["n_neighbours"])
+                )
                 clf.psi = z["psi"].astype(np.float64)
                 clf.eigenimages = z["eigenimages"].astype(np.float64)
                 clf.eigenvalues = z["eigenvalues"]
@@ -222,9 +234,14 @@ def fit_svm(x: np.ndarray, y: np.ndarray) -> dict:
     from sklearn.svm import SVC
 
     m = SVC(C=SVM_C, kernel="rbf", gamma="scale").fit(np.asarray(x, np.float64), y)
-    return {"classes": m.classes_, "support": m.support_vectors_.astype(np.float32),
-            "n_support": m.n_support_.astype(np.int64), "dual_coef": m.dual_coef_, "intercept": m.intercept_,
-            "gamma": np.float64(m._gamma)}
+    return {
+        "classes": m.classes_,
+        "support": m.support_vectors_.astype(np.float32),
+        "n_support": m.n_support_.astype(np.int64),
+        "dual_coef": m.dual_coef_,
+        "intercept": m.intercept_,
+        "gamma": np.float64(m._gamma),
+    }
 
 
 def svm_predict(svm: dict, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -233,7 +250,7 @@ def svm_predict(svm: dict, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     intercept; > 0 votes for i. Ties go to the lower class index (libsvm's argmax)."""
     sv = np.asarray(svm["support"], np.float64)
     x = np.asarray(x, np.float64)
-    d2 = (x ** 2).sum(1)[:, None] - 2 * x @ sv.T + (sv ** 2).sum(1)[None, :]
+    d2 = (x**2).sum(1)[:, None] - 2 * x @ sv.T + (sv**2).sum(1)[None, :]
     k = np.exp(-float(svm["gamma"]) * np.maximum(d2, 0.0))  # (N, n_sv)
     classes, n_sv, coef, b = svm["classes"], svm["n_support"], svm["dual_coef"], svm["intercept"]
     start = np.concatenate([[0], np.cumsum(n_sv)])

@@ -54,8 +54,9 @@ def fit_ellipse(region: np.ndarray) -> Ellipse | None:
     # image y grows down: flip its sign so the angle is counter-clockwise as seen on screen
     angle = np.degrees(np.arctan2(-major[1], major[0])) % 180.0
     # a filled ellipse sampled on the pixel grid: variance = l^2/16 (+1/12 from pixel width, negligible)
-    return Ellipse(float(4 * np.sqrt(lam[1] + 1 / 12)), float(4 * np.sqrt(lam[0] + 1 / 12)),
-                   float(angle), float(x_c), float(y_c))
+    return Ellipse(
+        float(4 * np.sqrt(lam[1] + 1 / 12)), float(4 * np.sqrt(lam[0] + 1 / 12)), float(angle), float(x_c), float(y_c)
+    )
 
 
 def _wrist_side(mask: np.ndarray) -> str | None:

@@ -53,27 +53,38 @@ def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> Hand:
         raise NoHandError(f"no hand found: {exc}") from None
     share = float(mask.mean())
     if share < MIN_HAND_SHARE:
-        raise NoHandError(f"no hand found: what stands out covers {100 * share:.1f} % of the picture "
-                          f"(a hand covers at least {100 * MIN_HAND_SHARE:.0f} %; one leaving the picture?)")
-    sat = cv2.cvtColor(frame_bgr if frame_bgr.ndim == 3 else cv2.cvtColor(frame_bgr, cv2.COLOR_GRAY2BGR),
-                       cv2.COLOR_BGR2HSV)[..., 1].astype(np.float32)
+        raise NoHandError(
+            f"no hand found: what stands out covers {100 * share:.1f} % of the picture "
+            f"(a hand covers at least {100 * MIN_HAND_SHARE:.0f} %; one leaving the picture?)"
+        )
+    sat = cv2.cvtColor(
+        frame_bgr if frame_bgr.ndim == 3 else cv2.cvtColor(frame_bgr, cv2.COLOR_GRAY2BGR), cv2.COLOR_BGR2HSV
+    )[..., 1].astype(np.float32)
     k = max(3, (min(mask.shape) // 10) | 1)
     away = ~cv2.dilate(mask.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
     background = float(sat[away].mean()) if away.any() else 0.0
     if background > MAX_BACKGROUND_SATURATION:
-        raise NoHandError(f"no hand found: the background is not plain (saturation {background:.0f}, a plain "
-                          f"one's at most {MAX_BACKGROUND_SATURATION:.0f}; clutter?)")
+        raise NoHandError(
+            f"no hand found: the background is not plain (saturation {background:.0f}, a plain "
+            f"one's at most {MAX_BACKGROUND_SATURATION:.0f}; clutter?)"
+        )
     skin = float(sat[mask].mean())
     if skin < MIN_SKIN_SATURATION:
-        raise NoHandError(f"no hand found: what stands out is not skin-coloured (saturation {skin:.0f}, a hand's "
-                          f"at least {MIN_SKIN_SATURATION:.0f}; a person?)")
+        raise NoHandError(
+            f"no hand found: what stands out is not skin-coloured (saturation {skin:.0f}, a hand's "
+            f"at least {MIN_SKIN_SATURATION:.0f}; a person?)"
+        )
     if not (mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any()):
-        raise NoHandError("no hand found: what stands out does not reach the picture's edge (a hand held up "
-                          "comes in with its wrist; a person seen whole?)")
+        raise NoHandError(
+            "no hand found: what stands out does not reach the picture's edge (a hand held up "
+            "comes in with its wrist; a person seen whole?)"
+        )
     x = hand_hog([frame_bgr], [mask])
     distance = float(classifier.hand_space_distance(x)[0])
     if distance > HAND_SPACE_LIMIT:
-        raise NoHandError(f"no hand found: the silhouette is not a hand's (distance from the hand space "
-                          f"{distance:.2f} > {HAND_SPACE_LIMIT}; a person, or a cluttered background?)")
+        raise NoHandError(
+            f"no hand found: the silhouette is not a hand's (distance from the hand space "
+            f"{distance:.2f} > {HAND_SPACE_LIMIT}; a person, or a cluttered background?)"
+        )
     label, conf = classifier.predict_features(x)
     return Hand(mask, str(label[0]), float(conf[0]), distance)

@@ -41,15 +41,15 @@ def _header_size(path: Path) -> tuple[int, int] | None:
                 i += 1 if marker == 0xFF else 2
                 continue
             if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # start of frame
-                return int.from_bytes(data[i + 7:i + 9], "big"), int.from_bytes(data[i + 5:i + 7], "big")
-            i += 2 + int.from_bytes(data[i + 2:i + 4], "big")
+                return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+            i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
     return None
 
 
 def _ends_with_eoi(data: np.ndarray) -> bool:
     """A complete JPEG ends with the end-of-image marker FF D9 (some cameras pad it with zero bytes)."""
     nz = np.flatnonzero(data)
-    return len(nz) >= 2 and data[nz[-1] - 1:nz[-1] + 1].tobytes() == b"\xff\xd9"
+    return len(nz) >= 2 and data[nz[-1] - 1 : nz[-1] + 1].tobytes() == b"\xff\xd9"
 
 
 def check_image(img: np.ndarray | None, path: Path) -> np.ndarray:
@@ -89,7 +89,7 @@ def split_strip(img: np.ndarray, side: int = STRIP_SIDE) -> list[np.ndarray] | N
     """The frames of a Weizmann strip (side x side frames left to right), or None if img is not one."""
     h, w = img.shape[:2]
     if h == side and w % side == 0 and w >= 2 * side:
-        return [np.ascontiguousarray(img[:, k:k + side]) for k in range(0, w, side)]
+        return [np.ascontiguousarray(img[:, k : k + side]) for k in range(0, w, side)]
     return None
 
 

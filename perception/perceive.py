@@ -13,9 +13,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from perception.ellipses import Ellipse, body_regions, hand_regions
 from perception.ann import GestureANN
 from perception.eigen import EigenClassifier, default_model
+from perception.ellipses import Ellipse, body_regions, hand_regions
 from perception.features import to_work_size
 from perception.io import load_frames, load_image
 from perception.segmentation import hand_mask, person_regions
@@ -23,23 +23,36 @@ from perception.skeleton import feature_vector
 from perception.tracking import track_boxes
 
 SHEET_FRAMES = 12
-COLOURS = {"torso": (0, 200, 0), "head": (0, 200, 200), "left_arm": (0, 0, 255), "right_arm": (255, 0, 0),
-           "palm": (0, 200, 0), "finger": (255, 0, 255)}
+COLOURS = {
+    "torso": (0, 200, 0),
+    "head": (0, 200, 200),
+    "left_arm": (0, 0, 255),
+    "right_arm": (255, 0, 0),
+    "palm": (0, 200, 0),
+    "finger": (255, 0, 255),
+}
 
 
 def _fmt(e: Ellipse | None) -> str:
     if e is None:
         return "none"
-    return (f"l_major={e.l_major:.1f} l_minor={e.l_minor:.1f} orientation={e.orientation_deg:.1f} "
-            f"x_c={e.x_c:.1f} y_c={e.y_c:.1f}")
+    return (
+        f"l_major={e.l_major:.1f} l_minor={e.l_minor:.1f} orientation={e.orientation_deg:.1f} "
+        f"x_c={e.x_c:.1f} y_c={e.y_c:.1f}"
+    )
 
 
 def _draw_ellipse(img: np.ndarray, e: Ellipse | None, colour, scale: float) -> None:
     if e is None:
         return
     (cx, cy), (a, b), ang = e.cv_box()
-    cv2.ellipse(img, ((cx * scale + scale / 2, cy * scale + scale / 2), (max(a * scale, 1), max(b * scale, 1)), ang),
-                colour, 1, cv2.LINE_AA)
+    cv2.ellipse(
+        img,
+        ((cx * scale + scale / 2, cy * scale + scale / 2), (max(a * scale, 1), max(b * scale, 1)), ang),
+        colour,
+        1,
+        cv2.LINE_AA,
+    )
     cv2.drawMarker(img, (int(cx * scale + scale / 2), int(cy * scale + scale / 2)), colour, cv2.MARKER_CROSS, 6, 1)
 
 
@@ -68,23 +81,27 @@ def perceive_hand(path: Path, model: str | None = None) -> tuple[list[str], np.n
     fv = feature_vector(mask)
     force = GestureANN.load()(fv)
     pts = regions["critical_points"]
-    lines = [f"image={path} size={img.shape[1]}x{img.shape[0]} silhouette_area={int(mask.sum())}",
-             f"class={label[0]} confidence={conf[0]:.2f}",
-             f"palm {_fmt(regions['palm'])}"]
+    lines = [
+        f"image={path} size={img.shape[1]}x{img.shape[0]} silhouette_area={int(mask.sum())}",
+        f"class={label[0]} confidence={conf[0]:.2f}",
+        f"palm {_fmt(regions['palm'])}",
+    ]
     lines += [f"finger{i} {_fmt(e)}" for i, e in enumerate(regions["fingers"])]
-    lines += [f"first_joints={[(round(x, 1), round(y, 1)) for x, y in pts['first_joints']]}",
-              f"finger_tips={[(round(x, 1), round(y, 1)) for x, y in pts['finger_tips']]}",
-              f"centre_of_mass=({pts['centre_of_mass'][0]:.1f}, {pts['centre_of_mass'][1]:.1f})",
-              "feature_vector=[" + ", ".join(f"{v:.2f}" for v in fv) + "]",
-              f"body_force F_along={force[0]:.2f} F_split={force[1]:.2f}"]
+    lines += [
+        f"first_joints={[(round(x, 1), round(y, 1)) for x, y in pts['first_joints']]}",
+        f"finger_tips={[(round(x, 1), round(y, 1)) for x, y in pts['finger_tips']]}",
+        f"centre_of_mass=({pts['centre_of_mass'][0]:.1f}, {pts['centre_of_mass'][1]:.1f})",
+        "feature_vector=[" + ", ".join(f"{v:.2f}" for v in fv) + "]",
+        f"body_force F_along={force[0]:.2f} F_split={force[1]:.2f}",
+    ]
     pic, s = _upscale(img)
     _outline(pic, mask, s)
     _draw_ellipse(pic, regions["palm"], COLOURS["palm"], s)
     for e in regions["fingers"]:
         _draw_ellipse(pic, e, COLOURS["finger"], s)
-    for (x, y) in pts["first_joints"]:
+    for x, y in pts["first_joints"]:
         cv2.drawMarker(pic, (int(x * s), int(y * s)), (255, 0, 0), cv2.MARKER_STAR, 10, 2)
-    for (x, y) in pts["finger_tips"]:
+    for x, y in pts["finger_tips"]:
         cv2.drawMarker(pic, (int(x * s), int(y * s)), (0, 160, 0), cv2.MARKER_STAR, 10, 2)
     cx, cy = pts["centre_of_mass"]
     cv2.drawMarker(pic, (int(cx * s), int(cy * s)), (0, 0, 255), cv2.MARKER_STAR, 12, 2)
@@ -105,8 +122,11 @@ def perceive_clip(path: Path) -> tuple[list[str], np.ndarray]:
     for i in picks:
         ells = body_regions(regions[i])
         box = tracked[i]
-        lines.append(f"frame {i}: " + " | ".join(f"{k} {_fmt(e)}" for k, e in ells.items())
-                     + (f" | box x={box[0]:.1f} y={box[1]:.1f} w={box[2]:.1f} h={box[3]:.1f}" if box else " | box none"))
+        lines.append(
+            f"frame {i}: "
+            + " | ".join(f"{k} {_fmt(e)}" for k, e in ells.items())
+            + (f" | box x={box[0]:.1f} y={box[1]:.1f} w={box[2]:.1f} h={box[3]:.1f}" if box else " | box none")
+        )
         tile, s = _upscale(frames[i], 256)
         if regions[i].silhouette.any():
             _outline(tile, regions[i].silhouette, s)
@@ -120,5 +140,5 @@ def perceive_clip(path: Path) -> tuple[list[str], np.ndarray]:
     cols = min(4, len(tiles))
     while len(tiles) % cols:
         tiles.append(np.zeros_like(tiles[0]))
-    sheet = np.vstack([np.hstack(tiles[r:r + cols]) for r in range(0, len(tiles), cols)])
+    sheet = np.vstack([np.hstack(tiles[r : r + cols]) for r in range(0, len(tiles), cols)])
     return lines, sheet

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-
 MIN_PART_SHARE = 0.1  # of the largest part's area: smaller parts are wall that GrabCut got wrong
 
 
@@ -43,15 +42,16 @@ class PersonSeed:
     iterations: int = 4
 
 
-def seed_mask(shape: tuple[int, int], centre_col: int, top_row: int, moving: np.ndarray,
-              seed: PersonSeed = PersonSeed()) -> np.ndarray:
+def seed_mask(
+    shape: tuple[int, int], centre_col: int, top_row: int, moving: np.ndarray, seed: PersonSeed = PersonSeed()
+) -> np.ndarray:
     """GrabCut's initial labels (cv2.GC_*) for one frame: see the module docstring."""
     rows, cols = shape
     height = max(rows - top_row, 1)
     half = max(2, int(round(seed.band_share * height)))
     margin = max(2, int(round(seed.margin_share * height)))
     band = np.zeros(shape, bool)
-    band[top_row:, max(0, centre_col - half):centre_col + half + 1] = True
+    band[top_row:, max(0, centre_col - half) : centre_col + half + 1] = True
     likely = band | moving
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * margin + 1, 2 * margin + 1))
     near = cv2.dilate(likely.astype(np.uint8), k).astype(bool)
@@ -79,10 +79,13 @@ def grabcut_person(frame_bgr: np.ndarray, init: np.ndarray, iterations: int = Pe
     return np.isin(labels, keep)
 
 
-def person_masks(frames: list[np.ndarray], moving: list[np.ndarray], centre_col: int, top_row: int,
-                 seed: PersonSeed = PersonSeed()) -> list[np.ndarray]:
+def person_masks(
+    frames: list[np.ndarray], moving: list[np.ndarray], centre_col: int, top_row: int, seed: PersonSeed = PersonSeed()
+) -> list[np.ndarray]:
     """The whole person in each frame (BGR frames, their moving-pixel masks, the still body's centre column
     and top row)."""
     shape = frames[0].shape[:2]
-    return [grabcut_person(f, seed_mask(shape, centre_col, top_row, m, seed), seed.iterations)
-            for f, m in zip(frames, moving)]
+    return [
+        grabcut_person(f, seed_mask(shape, centre_col, top_row, m, seed), seed.iterations)
+        for f, m in zip(frames, moving)
+    ]

@@ -60,6 +60,7 @@ def hand_mask(image_bgr: np.ndarray) -> np.ndarray:
 
 # --- people in a video with a static camera (thesis §5.2 steps 1-3, §6.2.2) ---------------------------
 
+
 class NoMotionError(SegmentationError):
     """The frames hold nothing that moves against the background."""
 
@@ -122,7 +123,9 @@ def _diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return d.max(axis=2) if d.ndim == 3 else d
 
 
-def moving_masks(frames: list[np.ndarray], background: np.ndarray, threshold: int = MOTION_THRESHOLD) -> list[np.ndarray]:
+def moving_masks(
+    frames: list[np.ndarray], background: np.ndarray, threshold: int = MOTION_THRESHOLD
+) -> list[np.ndarray]:
     """Per frame: pixels that differ from the background by more than threshold, gaps closed (§5.2 step 2)."""
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
     out = []
@@ -146,9 +149,11 @@ def static_body(background: np.ndarray, near: np.ndarray | None = None) -> np.nd
     if near is not None and near.any():
         ny, nx = np.nonzero(near)
         centre = np.array([nx.mean(), ny.mean()])
+
         def score(m):
             ys, xs = np.nonzero(m)
             return np.hypot(xs - centre[0], ys - centre[1]).min() - 1e-3 * len(xs)
+
         comps.sort(key=score)
     return _fill(comps[0])
 
@@ -177,14 +182,15 @@ def _seed_place(stable: np.ndarray, anywhere: np.ndarray) -> tuple[int, int]:
     src = stable if stable.any() else anywhere
     ys, xs = np.nonzero(src)
     centre, top = int(round(xs.mean())), int(ys.min())
-    near = anywhere[:, max(0, centre - 2):centre + 3]
+    near = anywhere[:, max(0, centre - 2) : centre + 3]
     if near.any():
         top = min(top, int(np.flatnonzero(near.any(axis=1))[0]))
     return centre, top
 
 
-def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD,
-                   only: list[int] | None = None) -> list[PersonRegions]:
+def person_regions(
+    frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD, only: list[int] | None = None
+) -> list[PersonRegions]:
     """Regions of the one person in each frame of a static-camera clip (thesis §5.2, §6.2.2).
 
     Background = temporal median (the still body stays in it); moving parts = frame minus background.
@@ -205,16 +211,22 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD,
     rows, cols = bg.shape[:2]
     min_motion = max(5, int(2e-4 * rows * cols))
     if sum(int(m.sum() >= min_motion) for m in moving) < max(2, len(frames) // 10):
-        raise NoMotionError("no person found: no motion, nothing in the frames differs from the background "
-                            "(a still picture or an empty scene?)")
+        raise NoMotionError(
+            "no person found: no motion, nothing in the frames differs from the background "
+            "(a still picture or an empty scene?)"
+        )
     sharp = median_sharpness(frames, bg)
     if sharp < MIN_MEDIAN_SHARPNESS:
-        raise NoPersonError(f"no person found: the camera moves (the clip's median picture keeps {sharp:.0%} of "
-                            f"a frame's detail, a static camera's at least {MIN_MEDIAN_SHARPNESS:.0%})")
+        raise NoPersonError(
+            f"no person found: the camera moves (the clip's median picture keeps {sharp:.0%} of "
+            f"a frame's detail, a static camera's at least {MIN_MEDIAN_SHARPNESS:.0%})"
+        )
     shares = np.array([m.mean() for m in moving])
     if np.median(shares) > MAX_MOVING_SHARE:
-        raise NoPersonError(f"no person found: {100 * np.median(shares):.0f} % of the picture moves in a typical "
-                            "frame (a moving camera?); a person needs a static camera")
+        raise NoPersonError(
+            f"no person found: {100 * np.median(shares):.0f} % of the picture moves in a typical "
+            "frame (a moving camera?); a person needs a static camera"
+        )
     anywhere = np.mean(np.stack(moving), axis=0) > 0.05
     stable = static_body(bg, near=anywhere)
     centre_col, top_row = _seed_place(stable, anywhere)
@@ -222,8 +234,10 @@ def person_regions(frames: list[np.ndarray], threshold: int = MOTION_THRESHOLD,
     silhouettes = person_masks([frames[i] for i in wanted], [moving[i] for i in wanted], centre_col, top_row)
     tall = [s.any() and np.ptp(np.flatnonzero(s.any(axis=1))) + 1 >= MIN_PERSON_HEIGHT * rows for s in silhouettes]
     if sum(tall) < 0.5 * len(silhouettes):
-        raise NoPersonError(f"no person found: what moves is never a standing person (taller than "
-                            f"{MIN_PERSON_HEIGHT:.0%} of the picture) in more than half of the frames")
+        raise NoPersonError(
+            f"no person found: what moves is never a standing person (taller than "
+            f"{MIN_PERSON_HEIGHT:.0%} of the picture) in more than half of the frames"
+        )
     out = []
     for i, sil in zip(wanted, silhouettes):
         parts = split_body(sil, moving[i])

@@ -29,6 +29,7 @@ from collections import deque
 
 import cv2
 import numpy as np
+
 from perception.ellipses import PALM_SCALE, hand_regions
 
 SPUR = 0.12  # prune skeleton spurs shorter than this share of the silhouette's longer side
@@ -47,9 +48,11 @@ NAMES = ("line_edge", "u_shape", "v_shape", "two_curves", "one_curve", "branch_d
 # scikit-image is not a dependency. Bit k of the code is neighbour P(k+2); cv2.filter2D correlates, so
 # kernel[dy+1, dx+1] weighs the pixel at (row + dy, col + dx).
 _CODE_KERNEL = np.array(
-    [[128, 1, 2],  # P9 (NW), P2 (N), P3 (NE)
-     [64, 0, 4],  # P8 (W),         P4 (E)
-     [32, 16, 8]],  # P7 (SW), P6 (S), P5 (SE)
+    [
+        [128, 1, 2],  # P9 (NW), P2 (N), P3 (NE)
+        [64, 0, 4],  # P8 (W),         P4 (E)
+        [32, 16, 8],
+    ],  # P7 (SW), P6 (S), P5 (SE)
     dtype=np.float32,
 )
 
@@ -172,7 +175,7 @@ APEX_TRIM = 0.35  # share of each arm next to the apex left out of the line fits
 
 
 def _trim(arm: np.ndarray) -> np.ndarray:
-    return arm[int(APEX_TRIM * len(arm)):] if len(arm) >= 6 else arm
+    return arm[int(APEX_TRIM * len(arm)) :] if len(arm) >= 6 else arm
 
 
 def shape_features(path: np.ndarray, size: float) -> np.ndarray:

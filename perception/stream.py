@@ -57,8 +57,9 @@ def open_capture(source: str, params: StreamParams) -> tuple[cv2.VideoCapture, b
     if source.isdigit():
         cap, is_file = cv2.VideoCapture(int(source)), False
     elif _is_url(source):
-        cap = cv2.VideoCapture(source, cv2.CAP_FFMPEG, [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms,
-                                                         cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms])
+        cap = cv2.VideoCapture(
+            source, cv2.CAP_FFMPEG, [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
+        )
         is_file = False
     else:
         path = Path(source)
@@ -167,7 +168,7 @@ class FrameStream:
         if not self._thread.is_alive():
             self._cap.release()
 
-    def __enter__(self) -> "FrameStream":
+    def __enter__(self) -> FrameStream:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -38,8 +38,10 @@ def main() -> int:
     upright = {}
     angles = {"sideways": [], "up": []}
     arms_found = arms_total = 0
-    print(f"{'clip':16s} {'head':>7s} {'feet':>7s} {'both':>7s} {'torso upright':>14s} {'tilt med':>8s} "
-          f"{'l_major med':>11s} {'s':>5s}")
+    print(
+        f"{'clip':16s} {'head':>7s} {'feet':>7s} {'both':>7s} {'torso upright':>14s} {'tilt med':>8s} "
+        f"{'l_major med':>11s} {'s':>5s}"
+    )
     for action in ("wave1", "wave2", "jack", "bend"):
         for person in range(7):
             name = f"{action}/person{person}"
@@ -59,9 +61,11 @@ def main() -> int:
                 n, h, f, b = n + 1, h + he, f + fe, b + (he and fe)
             for k, v in zip(("labelled", "head", "feet", "both"), (n, h, f, b)):
                 tot[k] += v
-            lab_txt = (f"{h:>3d}/{n:<3d} {f:>3d}/{n:<3d} {b:>3d}/{n:<3d}" if n else f"{'-':>7s} {'-':>7s} {'-':>7s}")
-            print(f"{name:16s} {lab_txt} {sum(ok):>6d}/{len(ok):<7d} {np.median(tilts):8.1f} {np.median(majors):11.1f} "
-                  f"{secs:5.2f}")
+            lab_txt = f"{h:>3d}/{n:<3d} {f:>3d}/{n:<3d} {b:>3d}/{n:<3d}" if n else f"{'-':>7s} {'-':>7s} {'-':>7s}"
+            print(
+                f"{name:16s} {lab_txt} {sum(ok):>6d}/{len(ok):<7d} {np.median(tilts):8.1f} {np.median(majors):11.1f} "
+                f"{secs:5.2f}"
+            )
             if action == "wave2" and f"person{person}" in arm_labels:
                 for pose, frames in arm_labels[f"person{person}"].items():
                     for i in frames:
@@ -72,16 +76,20 @@ def main() -> int:
                                 e = ells[i][arm]
                                 angles[pose].append(min(e.orientation_deg, 180 - e.orientation_deg))
     n = tot["labelled"]
-    print(f"\nlabelled frames (wave1, wave2, jack): {n}; silhouette within {HEAD_FEET_TOLERANCE} px of the head top "
-          f"{tot['head']}/{n} ({100 * tot['head'] / n:.1f} %), of the feet {tot['feet']}/{n} "
-          f"({100 * tot['feet'] / n:.1f} %), both {tot['both']}/{n} ({100 * tot['both'] / n:.1f} %)")
+    print(
+        f"\nlabelled frames (wave1, wave2, jack): {n}; silhouette within {HEAD_FEET_TOLERANCE} px of the head top "
+        f"{tot['head']}/{n} ({100 * tot['head'] / n:.1f} %), of the feet {tot['feet']}/{n} "
+        f"({100 * tot['feet'] / n:.1f} %), both {tot['both']}/{n} ({100 * tot['both'] / n:.1f} %)"
+    )
     for action, ok in upright.items():
         print(f"torso upright ({action}, all frames): {sum(ok)}/{len(ok)} ({100 * np.mean(ok):.1f} %)")
     stand = [v for a in ("wave1", "wave2", "jack") for v in upright[a]]
     print(f"torso upright (wave1, wave2, jack, all frames): {sum(stand)}/{len(stand)} ({100 * np.mean(stand):.1f} %)")
     side, up = np.array(angles["sideways"]), np.array(angles["up"])
-    print(f"wave2 labelled arms found {arms_found}/{arms_total}; sideways mean {side.mean():.1f} max {side.max():.1f}; "
-          f"up mean {up.mean():.1f} min {up.min():.1f} (degrees from horizontal)")
+    print(
+        f"wave2 labelled arms found {arms_found}/{arms_total}; sideways mean {side.mean():.1f} max {side.max():.1f}; "
+        f"up mean {up.mean():.1f} min {up.min():.1f} (degrees from horizontal)"
+    )
     return 0
 
 

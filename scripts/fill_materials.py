@@ -19,11 +19,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import coordinator.control.imitation_setup as setup_module  # noqa: E402
-from agent.sph.particle import X, Y  # noqa: E402
-from agent.sph.reference import VectorisedDriver  # noqa: E402
-from coordinator.control.fidelity import fidelity  # noqa: E402
-from coordinator.control.route import followers_for  # noqa: E402
+import coordinator.control.imitation_setup as setup_module
+from agent.sph.particle import X, Y
+from agent.sph.reference import VectorisedDriver
+from coordinator.control.fidelity import fidelity
+from coordinator.control.route import followers_for
 
 SHARED = ROOT.parent / "shared" / "datasets"
 BODY_FRAMES = (("wave1", 0, 20), ("wave2", 0, 14), ("wave2", 2, 20), ("jack", 0, 10), ("jack", 2, 15), ("wave1", 3, 18))
@@ -53,8 +53,11 @@ def main() -> int:
             f = fidelity(im.mask, im.transform, out[:, [X, Y]])
             ious.append(f.iou)
             cvs.append(f.nn_cv)
-        print(f"{sys.argv[1]} beta={beta} mu={mu}: mean iou {np.mean(ious):.4f} min {np.min(ious):.4f} "
-              f"mean nn_cv {np.mean(cvs):.3f} max {np.max(cvs):.3f} ({time.perf_counter() - t:.0f} s)", flush=True)
+        print(
+            f"{sys.argv[1]} beta={beta} mu={mu}: mean iou {np.mean(ious):.4f} min {np.min(ious):.4f} "
+            f"mean nn_cv {np.mean(cvs):.3f} max {np.max(cvs):.3f} ({time.perf_counter() - t:.0f} s)",
+            flush=True,
+        )
     return 0
 
 

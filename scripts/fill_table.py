@@ -26,7 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from perception.io import load_frames  # noqa: E402
+from perception.io import load_frames
 
 SHARED = ROOT.parent / "shared" / "datasets"
 ACTIONS = ("wave1", "wave2", "jack")
@@ -34,9 +34,11 @@ ACTIONS = ("wave1", "wave2", "jack")
 
 def hand_inputs(per_class: int) -> list[tuple[str, Path, list[str]]]:
     digits = SHARED / "sign-language-digits"
-    return [(f"{cls}/{photo.name}", photo, [])
-            for cls in sorted(p.name for p in digits.iterdir() if p.is_dir())
-            for photo in sorted((digits / cls).glob("*.JPG"))[:per_class]]
+    return [
+        (f"{cls}/{photo.name}", photo, [])
+        for cls in sorted(p.name for p in digits.iterdir() if p.is_dir())
+        for photo in sorted((digits / cls).glob("*.JPG"))[:per_class]
+    ]
 
 
 def body_inputs(k: int) -> list[tuple[str, Path, list[str]]]:
@@ -44,16 +46,34 @@ def body_inputs(k: int) -> list[tuple[str, Path, list[str]]]:
     for action in ACTIONS:
         for clip in sorted((SHARED / "weizmann-actions-64" / action).glob("person*.png")):
             n = len(load_frames(clip))
-            out += [(f"{action}/{clip.stem} f{f}", clip, ["--frame", str(f)])
-                    for f in (round(n * (i + 1) / (k + 1)) for i in range(k))]
+            out += [
+                (f"{action}/{clip.stem} f{f}", clip, ["--frame", str(f)])
+                for f in (round(n * (i + 1) / (k + 1)) for i in range(k))
+            ]
     return out
 
 
 def imitate(path: Path, extra: list[str], agents: int) -> tuple[dict, float]:
     with tempfile.TemporaryDirectory() as out:
         t = time.perf_counter()
-        r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(path), *extra, "--agents", str(agents),
-                            "--out", out, "--json"], capture_output=True, text=True, cwd=ROOT)
+        r = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "fluidswarm",
+                "imitate",
+                str(path),
+                *extra,
+                "--agents",
+                str(agents),
+                "--out",
+                out,
+                "--json",
+            ],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+        )
         wall = time.perf_counter() - t
     if r.returncode != 0:
         raise SystemExit(f"fill_table: {path} {' '.join(extra)}: {r.stderr.strip().splitlines()[-1:]}")
@@ -71,16 +91,21 @@ def main() -> int:
         print(f"fill_table: {SHARED}: not a directory (the shared data sets)", file=sys.stderr)
         return 2
     inputs = hand_inputs(args.per_class) if args.kind == "hands" else body_inputs(args.frames_per_clip)
-    print(f"# fill controller, {args.agents} agent processes, {args.kind}: {len(inputs)} pictures "
-          f"({time.strftime('%Y-%m-%d')})")
+    print(
+        f"# fill controller, {args.agents} agent processes, {args.kind}: {len(inputs)} pictures "
+        f"({time.strftime('%Y-%m-%d')})"
+    )
     print(f"{'picture':<22} {'iou':>6} {'inside':>6} {'nn_cv':>6} {'form_s':>6} {'wall_s':>6} settled")
     rows = []
     for name, path, extra in inputs:
         rec, wall = imitate(path, extra, args.agents)
         f = rec["fidelity"]
         rows.append((f["iou"], f["inside"], f["nn_cv"], rec["formation_seconds"], wall))
-        print(f"{name:<22} {f['iou']:6.3f} {f['inside']:6.3f} {f['nn_cv']:6.3f} {rec['formation_seconds']:6.2f} "
-              f"{wall:6.1f} {'yes' if rec['formation_settled'] else 'no'}", flush=True)
+        print(
+            f"{name:<22} {f['iou']:6.3f} {f['inside']:6.3f} {f['nn_cv']:6.3f} {rec['formation_seconds']:6.2f} "
+            f"{wall:6.1f} {'yes' if rec['formation_settled'] else 'no'}",
+            flush=True,
+        )
     r = np.array(rows)
     print(f"pictures={len(r)}")
     print(f"mean_fidelity_iou={r[:, 0].mean():.4f}")

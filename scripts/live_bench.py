@@ -41,8 +41,15 @@ def viewer(url: str, reads: bool, seen: list, stop: threading.Event) -> None:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         try:
             sock.connect((host, int(port)))
-            ws = connect(url, sock=sock, subprotocols=SUBPROTOCOLS, open_timeout=2, max_queue=1, ping_interval=None,
-                         close_timeout=1)
+            ws = connect(
+                url,
+                sock=sock,
+                subprotocols=SUBPROTOCOLS,
+                open_timeout=2,
+                max_queue=1,
+                ping_interval=None,
+                close_timeout=1,
+            )
             break
         except OSError:
             sock.close()
@@ -73,8 +80,19 @@ def viewer(url: str, reads: bool, seen: list, stop: threading.Event) -> None:
 
 def one_run(n: int, steps: int, mode: str, tmp: Path) -> dict:
     mcap = tmp / f"{mode}-{time.monotonic_ns()}.mcap"
-    cmd = [sys.executable, "-m", "fluidswarm", "launch", "-n", str(n), "--steps", str(steps), "--record", str(mcap),
-           "--json"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "fluidswarm",
+        "launch",
+        "-n",
+        str(n),
+        "--steps",
+        str(steps),
+        "--record",
+        str(mcap),
+        "--json",
+    ]
     stop, seen, thread = threading.Event(), [], None
     if mode != "without":
         port = free_port()
@@ -94,8 +112,13 @@ def one_run(n: int, steps: int, mode: str, tmp: Path) -> dict:
     sps = json.loads(res.stdout)["steps_per_second"]
     complete, recorded, missing = check(mcap)
     mcap.unlink()
-    return {"steps_per_second": sps, "complete": complete and missing == 0, "recorded": recorded,
-            "received": len(set(seen)), "wall": wall}
+    return {
+        "steps_per_second": sps,
+        "complete": complete and missing == 0,
+        "recorded": recorded,
+        "received": len(set(seen)),
+        "wall": wall,
+    }
 
 
 def main() -> None:
@@ -109,12 +132,16 @@ def main() -> None:
             for m in modes:
                 runs[m].append(one_run(n, steps, m, Path(tmp)))
     base = statistics.median(r["steps_per_second"] for r in runs["without"])
-    print(f"# Live view (`--live`) and the swarm's pace\n")
-    print(f"`fluidswarm launch -n {n} --steps {steps} --record F.mcap`, lockstep, the compiled agent; {repeats} runs of "
-          f"each kind, interleaved; measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} on this 2-core machine "
-          f"with `scripts/live_bench.py {n} {steps} {repeats}`.\n")
-    print("| run | steps/s (each run) | median | vs without | MCAP complete | steps received by the viewer (the stuck "
-          "one reads after the run) | command wall s (median) |")
+    print("# Live view (`--live`) and the swarm's pace\n")
+    print(
+        f"`fluidswarm launch -n {n} --steps {steps} --record F.mcap`, lockstep, the compiled agent; {repeats} runs of "
+        f"each kind, interleaved; measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} on this 2-core machine "
+        f"with `scripts/live_bench.py {n} {steps} {repeats}`.\n"
+    )
+    print(
+        "| run | steps/s (each run) | median | vs without | MCAP complete | steps received by the viewer (the stuck "
+        "one reads after the run) | command wall s (median) |"
+    )
     print("|---|---|---|---|---|---|---|")
     for m in modes:
         rs = runs[m]
@@ -123,8 +150,10 @@ def main() -> None:
         complete = "yes" if all(r["complete"] for r in rs) else "NO"
         got = "—" if m == "without" else ", ".join(f"{r['received']}/{r['recorded']}" for r in rs)
         wall = statistics.median(r["wall"] for r in rs)
-        print(f"| {m if m == 'without' else '--live, ' + m} | {each} | {med:.1f} | {100 * (med / base - 1):+.1f} % "
-              f"| {complete} | {got} | {wall:.1f} |")
+        print(
+            f"| {m if m == 'without' else '--live, ' + m} | {each} | {med:.1f} | {100 * (med / base - 1):+.1f} % "
+            f"| {complete} | {got} | {wall:.1f} |"
+        )
 
 
 if __name__ == "__main__":

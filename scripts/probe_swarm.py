@@ -35,10 +35,12 @@ def main() -> None:
     launcher_cpu = time.process_time() - t0
     f = list(res.finals.values())
     cpu = np.mean([(r.cpu_seconds - (r.cpu_seconds_at_start or 0.0)) / max(r.steps, 1) for r in f]) * 1e6
-    print(f"n={n} done={sum(r.done for r in f)} steps_per_second={res.steps_per_second():.2f} "
-          f"agent_cpu_us_per_step={cpu:.0f} rss_mb={np.mean([r.rss_mb for r in f]):.1f} "
-          f"launcher_cpu_s={launcher_cpu:.1f} startup_s={res.startup_seconds:.2f} msgs={res.msgs_per_agent_step():.1f}"
-          f"{router_cpu}")
+    print(
+        f"n={n} done={sum(r.done for r in f)} steps_per_second={res.steps_per_second():.2f} "
+        f"agent_cpu_us_per_step={cpu:.0f} rss_mb={np.mean([r.rss_mb for r in f]):.1f} "
+        f"launcher_cpu_s={launcher_cpu:.1f} startup_s={res.startup_seconds:.2f} msgs={res.msgs_per_agent_step():.1f}"
+        f"{router_cpu}"
+    )
 
 
 if __name__ == "__main__":

@@ -1,10 +1,16 @@
 """Historical (needs commit 7b7d7b7, the last with agent/process.py, and /tmp/pyagent: a shell script running
 `exec .venv/bin/python -m agent "$@"`). Side by side, one run: the Python agent vs the native agent, the same
 lockstep set-up (`spread_block`, all SPH terms), alternating per N. Figures as fluidswarm bench's lockstep()."""
-import json, os, sys, time
+
+import json
+import os
+import sys
+import time
+
 sys.path.insert(0, "/work/main")
-from fluidswarm import bench
 import agent.launcher as L
+from fluidswarm import bench
+
 out = []
 steps = int(sys.argv[2])
 for n in [int(v) for v in sys.argv[1].split(",")]:
@@ -13,7 +19,8 @@ for n in [int(v) for v in sys.argv[1].split(",")]:
             os.environ["FLUIDSWARM_AGENT_BIN"] = "/tmp/pyagent"
             L.CLOCK_PERIOD = 0.1
         else:
-            os.environ.pop("FLUIDSWARM_AGENT_BIN", None); L.CLOCK_PERIOD = 0.02
+            os.environ.pop("FLUIDSWARM_AGENT_BIN", None)
+            L.CLOCK_PERIOD = 0.02
         t = time.time()
         try:
             r = bench.lockstep(n, steps)

@@ -44,16 +44,21 @@ def one(n: int, steps: int) -> dict:
     with Launcher() as la:
         res = run_swarm(spread_block(n), steps, launcher=la)
     f = list(res.finals.values())
-    field = lambda r, k: getattr(r, k) if hasattr(r, k) else r[k]  # noqa: E731 (FinalReport or dict)
+    field = lambda r, k: getattr(r, k) if hasattr(r, k) else r[k]
     cpu = np.mean([(field(r, "cpu_seconds") - field(r, "cpu_seconds_at_start")) / max(field(r, "steps"), 1) for r in f])
     rejected: dict[str, int] = {}
     for r in f:
         for k, v in field(r, "rejected").items():
             rejected[k] = rejected.get(k, 0) + v
-    return {"n": n, "done": sum(str(getattr(field(r, "status"), "value", field(r, "status"))) == "done" for r in f),
-            "steps_per_second": round(res.steps_per_second(), 2), "agent_cpu_us_per_step": round(float(cpu) * 1e6),
-            "startup_s": round(res.startup_seconds, 2), "msgs": round(res.msgs_per_agent_step(), 1),
-            "rejected": rejected}
+    return {
+        "n": n,
+        "done": sum(str(getattr(field(r, "status"), "value", field(r, "status"))) == "done" for r in f),
+        "steps_per_second": round(res.steps_per_second(), 2),
+        "agent_cpu_us_per_step": round(float(cpu) * 1e6),
+        "startup_s": round(res.startup_seconds, 2),
+        "msgs": round(res.msgs_per_agent_step(), 1),
+        "rejected": rejected,
+    }
 
 
 def main() -> None:
@@ -63,9 +68,12 @@ def main() -> None:
     ns = [int(v) for v in sys.argv[1].split(",")]
     steps, rounds, out = int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     base_dir, base = (sys.argv[5], sys.argv[6]) if len(sys.argv) > 6 else ("", "")
-    settings = {"acl": {"FLUIDSWARM_ACCESS": "acl"},
-                "acl-keys": {"FLUIDSWARM_ACCESS": "acl", "FLUIDSWARM_SBS_NO_RULES": "1"},
-                "auth": {"FLUIDSWARM_ACCESS": "auth"}, "open": {"FLUIDSWARM_ACCESS": "none"}}
+    settings = {
+        "acl": {"FLUIDSWARM_ACCESS": "acl"},
+        "acl-keys": {"FLUIDSWARM_ACCESS": "acl", "FLUIDSWARM_SBS_NO_RULES": "1"},
+        "auth": {"FLUIDSWARM_ACCESS": "auth"},
+        "open": {"FLUIDSWARM_ACCESS": "none"},
+    }
     only = os.environ.get("FLUIDSWARM_SBS_SETTINGS")  # e.g. acl,acl-keys,auth
     if only:
         settings = {k: v for k, v in settings.items() if k in only.split(",")}
@@ -78,9 +86,18 @@ def main() -> None:
             for name in order:
                 env = {**os.environ, **settings[name]}
                 t = time.time()
-                p = subprocess.run([sys.executable, __file__, "--one", str(n), str(steps)], env=env,
-                                   capture_output=True, text=True, timeout=1800)
-                row = json.loads(p.stdout.strip().splitlines()[-1]) if p.returncode == 0 else {"n": n, "error": p.stderr[-300:]}
+                p = subprocess.run(
+                    [sys.executable, __file__, "--one", str(n), str(steps)],
+                    env=env,
+                    capture_output=True,
+                    text=True,
+                    timeout=1800,
+                )
+                row = (
+                    json.loads(p.stdout.strip().splitlines()[-1])
+                    if p.returncode == 0
+                    else {"n": n, "error": p.stderr[-300:]}
+                )
                 row.update(setting=name, round=k, wall_s=round(time.time() - t, 1))
                 print(json.dumps(row), flush=True)
                 rows.append(row)
@@ -96,8 +113,11 @@ def summarise(rows: list[dict], ns: list[int], rounds: int) -> None:
         for name in sorted({r["setting"] for r in rows if r["n"] == n}):
             values = [rate.get((n, name, k)) for k in range(rounds)]
             ratios = [v / o for v, o in zip(values, (rate.get((n, "open", k)) for k in range(rounds))) if v and o]
-            against = (f"  vs open: {', '.join(f'{r:.0%}' for r in ratios)} (mean {sum(ratios) / len(ratios):.0%})"
-                       if ratios and name != "open" else "")
+            against = (
+                f"  vs open: {', '.join(f'{r:.0%}' for r in ratios)} (mean {sum(ratios) / len(ratios):.0%})"
+                if ratios and name != "open"
+                else ""
+            )
             print(f"N={n} {name}: steps/s {', '.join('-' if v is None else f'{v:.2f}' for v in values)}{against}")
 
 

@@ -55,7 +55,9 @@ class FoxgloveClient:
         return next(ch for t, ch in self.channels.items() if t.endswith("/" + leaf))
 
     def subscribe(self, channel_id: int, subscription_id: int = 1) -> None:
-        self.ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": subscription_id, "channelId": channel_id}]}))
+        self.ws.send(
+            json.dumps({"op": "subscribe", "subscriptions": [{"id": subscription_id, "channelId": channel_id}]})
+        )
 
     def message(self, timeout: float) -> tuple[int, int, bytes] | None:
         """The next message-data frame: (subscription id, log time ns, message bytes); None on a control message."""
@@ -63,7 +65,7 @@ class FoxgloveClient:
         if not isinstance(msg, bytes) or msg[0] != MESSAGE_DATA:
             return None
         _op, sub, log_time = _HEADER.unpack_from(msg)
-        return sub, log_time, msg[_HEADER.size:]
+        return sub, log_time, msg[_HEADER.size :]
 
     def close(self) -> None:
         self._stack.close()

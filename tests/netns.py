@@ -63,8 +63,7 @@ class Hosts:
         return proc
 
     def _in(self, host: str, *cmd: str, stdin: str | None = None) -> None:
-        done = subprocess.run(["ip", "netns", "exec", self.ns[host], *cmd], input=stdin, capture_output=True,
-                              text=True)
+        done = subprocess.run(["ip", "netns", "exec", self.ns[host], *cmd], input=stdin, capture_output=True, text=True)
         if done.returncode != 0:
             raise NetnsUnavailable(f"{' '.join(cmd)} in host {host}: {done.stderr.strip()}")
 
@@ -73,11 +72,17 @@ class Hosts:
         if shutil.which("nft") is None:
             raise NetnsUnavailable("network faults need nftables ('nft'; apt-get install -y nftables)")
         dev = self.dev[(host, peer)]
-        self._in(host, "nft", "-f", "-", stdin=f"""
+        self._in(
+            host,
+            "nft",
+            "-f",
+            "-",
+            stdin=f"""
             table inet {_FAULTS} {{
                 chain out {{ type filter hook output priority 0; oifname "{dev}" {verdict}; }}
                 chain in {{ type filter hook input priority 0; iifname "{dev}" {verdict}; }}
-            }}""")
+            }}""",
+        )
 
     def partition(self, host: str, peer: str) -> None:
         """Cut the link host <-> peer both ways (packets dropped, not refused: as a pulled cable)."""
@@ -94,8 +99,22 @@ class Hosts:
     def cap_bandwidth(self, host: str, peer: str, rate: str, burst: str = "16kbit", latency: str = "200ms") -> None:
         """At most `rate` (tc units, e.g. 256kbit) each way on the link host <-> peer: a token bucket on both ends."""
         for h, p in ((host, peer), (peer, host)):
-            self._in(h, "tc", "qdisc", "replace", "dev", self.dev[(h, p)], "root", "tbf", "rate", rate, "burst", burst,
-                     "latency", latency)
+            self._in(
+                h,
+                "tc",
+                "qdisc",
+                "replace",
+                "dev",
+                self.dev[(h, p)],
+                "root",
+                "tbf",
+                "rate",
+                rate,
+                "burst",
+                burst,
+                "latency",
+                latency,
+            )
 
     def close(self) -> None:
         for p in self.procs:

@@ -31,8 +31,23 @@ def is_running(pid: int) -> bool:
 
 
 # Field names that would mean a command addresses particles one by one (the coordinator sends parameters only).
-PER_PARTICLE = {"id", "ids", "agent", "agents", "agent_id", "particle", "particles", "position", "positions",
-                "velocity", "velocities", "assignment", "assignments", "state", "states"}
+PER_PARTICLE = {
+    "id",
+    "ids",
+    "agent",
+    "agents",
+    "agent_id",
+    "particle",
+    "particles",
+    "position",
+    "positions",
+    "velocity",
+    "velocities",
+    "assignment",
+    "assignments",
+    "state",
+    "states",
+}
 
 
 def field_names(obj) -> set[str]:

@@ -6,28 +6,27 @@ import json
 import math
 import os
 import signal
-import struct
 import subprocess
-from types import SimpleNamespace
 import sys
 import threading
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import zenoh
 
-from agent.protocol.access import level as access_level
-from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
-from agent.router_host import free_port
+from agent.protocol import keys
+from agent.protocol.access import level as access_level
 from agent.protocol.report import Status
-from agent.protocol.spec import AgentSpec
 from agent.protocol.session import client_config
+from agent.protocol.spec import AgentSpec
+from agent.protocol.wire import encode_state
+from agent.router_host import free_port
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
-from agent.protocol.wire import STATE_SIZE, encode_state
 from tests.swarm_helpers import children_of, is_running, wait_for_live_step
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
@@ -43,7 +42,9 @@ def positions(res, ids):
 
 def record_of(*args: str):
     """`fluidswarm ARGS --json`: its whole stdout is one JSON object, the run's record."""
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", *args, "--json"], capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", *args, "--json"], capture_output=True, text=True, timeout=300
+    )
     assert r.returncode == 0, r.stdout + r.stderr
     record = json.loads(r.stdout)
     print(record)
@@ -84,6 +85,7 @@ def test_sigkill_20_percent_at_step_100_the_rest_complete_and_recover():
                 la.wait_step(kill_at, 120)
                 for v in victims:
                     os.kill(la.swarm.procs[v].pid, signal.SIGKILL)
+
             threading.Thread(target=go, daemon=True).start()
 
         res = run_swarm(setup, steps, launcher=launcher, on_started=kill_at_step)
@@ -112,6 +114,7 @@ def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
                 os.kill(pid, signal.SIGSTOP)
                 time.sleep(3.0)
                 os.kill(pid, signal.SIGCONT)
+
             threading.Thread(target=go, daemon=True).start()
 
         res = run_swarm(setup, steps, launcher=launcher, on_started=freeze)
@@ -126,8 +129,7 @@ def test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly():
     # neighbour states Zenoh queued for it (it then finishes every step), or, if they were not
     # delivered, finds the swarm ahead and exits cleanly with code 3.
     report = res.finals[frozen]
-    assert (code == 0 and report.done and report.steps == steps) or \
-        (code == 3 and report.status is Status.FELL_BEHIND)
+    assert (code == 0 and report.done and report.steps == steps) or (code == 3 and report.status is Status.FELL_BEHIND)
 
 
 def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
@@ -140,7 +142,9 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
         def go():
             # agent 7's own credentials: the router lets it publish only under id 7 (docs/security.md)
             cred = la.access.env_for_agent(7)
-            session = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
+            session = zenoh.open(
+                client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"])
+            )
             try:
                 good = encode_state(7, 0, setup.states[7])
                 bad = [
@@ -161,6 +165,7 @@ def test_rogue_state_messages_are_dropped_counted_and_change_nothing():
                     time.sleep(0.05)
             finally:
                 session.close()
+
         threading.Thread(target=go, daemon=True).start()
 
     try:
@@ -194,9 +199,25 @@ def test_no_process_survives_a_normal_run_or_sigint(tmp_path):
 
     # SIGINT while the swarm steps: the agents and the recorder (whose live view says when it steps) stop too
     port = free_port()
-    launch = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "8", "--steps", "100000",
-                               "--record", str(tmp_path / "run.mcap"), "--live", f"127.0.0.1:{port}"],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    launch = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "launch",
+            "-n",
+            "8",
+            "--steps",
+            "100000",
+            "--record",
+            str(tmp_path / "run.mcap"),
+            "--live",
+            f"127.0.0.1:{port}",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         first = launch.stdout.readline()
         assert first.startswith("run="), first
@@ -242,13 +263,21 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
         lines = r.stderr.strip().splitlines()
         assert r.returncode == 2, (field, r.returncode, r.stderr)
         assert len(lines) == 1 and field in lines[0] and "panicked" not in r.stderr, (field, r.stderr)
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "agent", "--spec", json.dumps(cases["id"])],
-                       capture_output=True, text=True, timeout=10)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "agent", "--spec", json.dumps(cases["id"])],
+        capture_output=True,
+        text=True,
+        timeout=10,
+    )
     assert r.returncode == 2 and "id" in r.stderr
     # ids from keys.MAX_AGENTS up have no key: both agents and the Python spec refuse them, the last one accepted
     AgentSpec.from_json(json.dumps({**spec, "id": keys.MAX_AGENTS - 1}))
     with pytest.raises(ValueError, match="id must be"):
         AgentSpec.from_json(json.dumps({**spec, "id": keys.MAX_AGENTS}))
-    r = subprocess.run([agent_executable(), "--spec", json.dumps({**spec, "id": keys.MAX_AGENTS})],
-                       capture_output=True, text=True, timeout=10)
+    r = subprocess.run(
+        [agent_executable(), "--spec", json.dumps({**spec, "id": keys.MAX_AGENTS})],
+        capture_output=True,
+        text=True,
+        timeout=10,
+    )
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "id" in r.stderr, r.stderr

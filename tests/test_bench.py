@@ -15,9 +15,27 @@ pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conft
 
 
 def test_bench_quick_writes_every_field(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "bench", "--quick", "--ns", "4,9", "--steps", "15",
-                        "--gesture-agents", "8", "--out", str(tmp_path), "--json"],
-                       capture_output=True, text=True, timeout=900)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "bench",
+            "--quick",
+            "--ns",
+            "4,9",
+            "--steps",
+            "15",
+            "--gesture-agents",
+            "8",
+            "--out",
+            str(tmp_path),
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     printed = BenchRecord.from_dict(json.loads(r.stdout))  # the whole of stdout: one JSON object
     res = BenchRecord.load(tmp_path / "results.json")
@@ -28,8 +46,13 @@ def test_bench_quick_writes_every_field(tmp_path):
     assert not any(isinstance(run, FailedRun) for run in res.runs), res.runs
     for run in res.runs:
         assert isinstance(run, LockstepRun) and run.steps == 15 and run.agents_finished == run.n
-        for key in ("steps_per_second", "msgs_per_agent_step", "rss_mb_per_agent", "centralised_steps_per_second",
-                    "decentralisation_ratio"):
+        for key in (
+            "steps_per_second",
+            "msgs_per_agent_step",
+            "rss_mb_per_agent",
+            "centralised_steps_per_second",
+            "decentralisation_ratio",
+        ):
             assert getattr(run, key) is not None and getattr(run, key) > 0, (key, run)
     assert res.step_time_exponent is not None
     assert res.gesture_agents == 8

@@ -40,18 +40,23 @@ def test_a_failed_run_and_missing_perception_are_kept(results):
     assert record.as_dict() == d
 
 
-@pytest.mark.parametrize("edit,key", [
-    (lambda d: d["runs"][1].update(steps_per_second="fast"), "runs[1].steps_per_second"),
-    (lambda d: d["runs"][0].pop("n"), "runs[0].n"),
-    (lambda d: d["runs"][0].update(agents_finished=True), "runs[0].agents_finished"),
-    (lambda d: d.update(runs={}), "runs"),
-    (lambda d: d["machine"].update(cores="two"), "machine.cores"),
-    (lambda d: d.pop("gesture_agents"), "gesture_agents"),
-    (lambda d: d["gesture_imitation_seconds"].update(scissor="slow"), "gesture_imitation_seconds.scissor"),
-    (lambda d: d["gesture_imitation_formation"]["pinching"].update(settled="yes"),
-     "gesture_imitation_formation.pinching.settled"),
-    (lambda d: d.update(quick=1), "quick"),
-])
+@pytest.mark.parametrize(
+    "edit,key",
+    [
+        (lambda d: d["runs"][1].update(steps_per_second="fast"), "runs[1].steps_per_second"),
+        (lambda d: d["runs"][0].pop("n"), "runs[0].n"),
+        (lambda d: d["runs"][0].update(agents_finished=True), "runs[0].agents_finished"),
+        (lambda d: d.update(runs={}), "runs"),
+        (lambda d: d["machine"].update(cores="two"), "machine.cores"),
+        (lambda d: d.pop("gesture_agents"), "gesture_agents"),
+        (lambda d: d["gesture_imitation_seconds"].update(scissor="slow"), "gesture_imitation_seconds.scissor"),
+        (
+            lambda d: d["gesture_imitation_formation"]["pinching"].update(settled="yes"),
+            "gesture_imitation_formation.pinching.settled",
+        ),
+        (lambda d: d.update(quick=1), "quick"),
+    ],
+)
 def test_a_bad_record_is_refused_naming_the_key(results, edit, key):
     d = copy.deepcopy(results)
     edit(d)

@@ -8,12 +8,11 @@ import subprocess
 import sys
 import threading
 import time
-
-import pytest
 from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from fluidswarm.recording.reader import check, load_run
 from perception.io import load_frames
@@ -45,9 +44,25 @@ def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follow
     # 4 fps: 14.8 s of stream. The swarm is paced to the wall clock, so a sideways phase (6 frames) must last
     # long enough in real time for it to follow (at 8 fps, 0.75 s: the formation no longer halved its gap).
     clip = write_clip(tmp_path / "wave2.avi", fps=4.0)
-    res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", str(clip), "--fps", "4", "--agents", "16",
-                                       "--steps", "100000", "--out", str(tmp_path / "out")],
-                         capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        FLUIDSWARM
+        + [
+            "imitate",
+            "--camera",
+            str(clip),
+            "--fps",
+            "4",
+            "--agents",
+            "16",
+            "--steps",
+            "100000",
+            "--out",
+            str(tmp_path / "out"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     # The clip ends before the run's cap: a normal end (exit 0, the record printed, MCAP complete).
     assert res.returncode == 0, res.stderr
     assert f"camera {clip}: the video ended after 59 frames" in res.stdout, res.stdout
@@ -92,8 +107,12 @@ def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follow
 
 @pytest.mark.swarm
 def test_unreachable_camera_is_one_line_and_exit_1(tmp_path):
-    res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", "/dev/video97", "--agents", "4", "--out", str(tmp_path)],
-                         capture_output=True, text=True, timeout=60)
+    res = subprocess.run(
+        FLUIDSWARM + ["imitate", "--camera", "/dev/video97", "--agents", "4", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 1
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "camera /dev/video97: no such device or file" in lines[0], res.stderr
@@ -111,8 +130,9 @@ def test_a_stream_that_stalls_is_named_with_the_problem():
             self.end_headers()
             for f in frames:
                 jpg = cv2.imencode(".jpg", f)[1].tobytes()
-                self.wfile.write(b"--frame\r\nContent-Type: image/jpeg\r\nContent-Length: %d\r\n\r\n" % len(jpg)
-                                 + jpg + b"\r\n")
+                self.wfile.write(
+                    b"--frame\r\nContent-Type: image/jpeg\r\nContent-Length: %d\r\n\r\n" % len(jpg) + jpg + b"\r\n"
+                )
                 self.wfile.flush()
                 time.sleep(0.05)
             hang.wait(30)

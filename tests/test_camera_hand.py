@@ -59,15 +59,24 @@ def test_what_is_no_hand_says_what_was_not_found(shared_hands, clf):
     clutter = np.zeros_like(hand)
     for _ in range(40):
         x, y = (int(v) for v in rng.integers(0, 100, 2))
-        cv2.rectangle(clutter, (x, y), (x + int(rng.integers(5, 30)), y + int(rng.integers(5, 30))),
-                      tuple(int(v) for v in rng.integers(0, 255, 3)), -1)
+        cv2.rectangle(
+            clutter,
+            (x, y),
+            (x + int(rng.integers(5, 30)), y + int(rng.integers(5, 30))),
+            tuple(int(v) for v in rng.integers(0, 255, 3)),
+            -1,
+        )
     m = hand_mask(hand)
     clutter[m] = hand[m]
     leaving = np.roll(hand, 60, axis=0)
     leaving[:60] = plain
     # a person: its clothes are not skin, or the room behind it is no plain background (wave2's is not)
-    for picture, why in ((empty, ("blank",)), (person, ("not skin-coloured", "background is not plain")),
-                         (clutter, ("background is not plain",)), (leaving, ("leaving the picture",))):
+    for picture, why in (
+        (empty, ("blank",)),
+        (person, ("not skin-coloured", "background is not plain")),
+        (clutter, ("background is not plain",)),
+        (leaving, ("leaving the picture",)),
+    ):
         with pytest.raises(NoHandError) as exc:
             find_hand(picture, clf)
         assert str(exc.value).startswith("no hand found: ") and any(w in str(exc.value) for w in why), str(exc.value)
@@ -81,12 +90,20 @@ def test_auto_subject_tells_a_hand_from_a_person(shared_hands, clf):
 
 def test_a_missing_hand_is_logged_once_per_reason(tmp_path):
     log = EventLog(tmp_path)
-    for what in ("no hand found: covers 1.2 %", "no hand found: covers 1.5 %", None, "no hand found: covers 2.0 %",
-                 "no hand found: the background is not plain"):
+    for what in (
+        "no hand found: covers 1.2 %",
+        "no hand found: covers 1.5 %",
+        None,
+        "no hand found: covers 2.0 %",
+        "no hand found: the background is not plain",
+    ):
         log.missing(what)
     lines = [json.loads(x) for x in (tmp_path / "events.jsonl").read_text().splitlines()]
-    assert [x["what"] for x in lines] == ["no hand found: covers 1.2 %", "no hand found: covers 2.0 %",
-                                          "no hand found: the background is not plain"]
+    assert [x["what"] for x in lines] == [
+        "no hand found: covers 1.2 %",
+        "no hand found: covers 2.0 %",
+        "no hand found: the background is not plain",
+    ]
 
 
 def test_a_video_file_ends_at_its_last_frame_and_can_be_held(shared_hands, tmp_path):
@@ -111,9 +128,26 @@ def test_a_video_file_ends_at_its_last_frame_and_can_be_held(shared_hands, tmp_p
 @pytest.mark.swarm
 def test_camera_video_of_three_hand_gestures_commands_each_and_ends_normally(shared_hands, tmp_path):
     video = write_video(tmp_path / "hands.avi", [photo(shared_hands, c) for c in (5, 1, 2)])  # 18 s
-    res = subprocess.run(FLUIDSWARM + ["imitate", "--camera", str(video), "--subject", "hand", "--agents", "16",
-                                       "--steps", "100000", "--out", str(tmp_path / "out"), "--json"],
-                         capture_output=True, text=True, timeout=150)
+    res = subprocess.run(
+        FLUIDSWARM
+        + [
+            "imitate",
+            "--camera",
+            str(video),
+            "--subject",
+            "hand",
+            "--agents",
+            "16",
+            "--steps",
+            "100000",
+            "--out",
+            str(tmp_path / "out"),
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=150,
+    )
     assert res.returncode == 0, res.stderr
     r = json.loads(res.stdout.strip().splitlines()[-1])
     print(r["gestures"], r["notes"], r["realtime_factor"])

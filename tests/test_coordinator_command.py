@@ -14,17 +14,35 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from coordinator.control.route import CommandFollower, RouteFollower, class_counts, class_of
-from agent.sph.particle import NFIELDS, X, Y, Control
 from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode, verify
+from agent.sph.particle import NFIELDS, Control, X, Y
 from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.route import CommandFollower, RouteFollower, class_counts, class_of
 from coordinator.process import commands_for_frames
 from tests.swarm_helpers import PER_PARTICLE, field_names
 
 REPO = Path(__file__).resolve().parent.parent
 WAVE2 = REPO / "scenarios" / "inputs" / "weizmann_wave2_person0.png"
-ALLOWED = {"v", "body", "sig", "seq", "gesture", "n_agents", "classes", "beta", "mu", "extra", "name", "share", "route",
-           "x", "y", "r", "s", "alpha"}
+ALLOWED = {
+    "v",
+    "body",
+    "sig",
+    "seq",
+    "gesture",
+    "n_agents",
+    "classes",
+    "beta",
+    "mu",
+    "extra",
+    "name",
+    "share",
+    "route",
+    "x",
+    "y",
+    "r",
+    "s",
+    "alpha",
+}
 
 
 def sign_raw(b: bytes, secret: bytes) -> bytes:
@@ -39,8 +57,12 @@ def sign(body: dict, secret: bytes) -> bytes:
 @pytest.fixture(scope="module")
 def commands(shared_image):
     out = {}
-    for name, path, frame in (("v", shared_image(2), None), ("one", shared_image(1), None),
-                              ("wave_side", WAVE2, 14), ("wave_up", WAVE2, 0)):
+    for name, path, frame in (
+        ("v", shared_image(2), None),
+        ("one", shared_image(1), None),
+        ("wave_side", WAVE2, 14),
+        ("wave_up", WAVE2, 0),
+    ):
         for controller in ("region", "pca", "ann"):
             out[name, controller] = prepare_input(path, 30, controller=controller, frame=frame)
     return out
@@ -51,7 +73,9 @@ def test_every_controller_sends_parameters_only(commands):
     for (name, controller), im in commands.items():
         env = json.loads(im.command.encode(secret))
         body = env["body"]
-        fields = field_names({k: v for k, v in env.items() if k != "body"}) | field_names({k: v for k, v in body.items() if k != "extra"})
+        fields = field_names({k: v for k, v in env.items() if k != "body"}) | field_names(
+            {k: v for k, v in body.items() if k != "extra"}
+        )
         assert fields <= ALLOWED, (name, controller, fields - ALLOWED)
         assert not fields & PER_PARTICLE
         assert decode(im.command.encode(secret), secret) == im.command
@@ -105,7 +129,11 @@ def test_class_split_largest_remainder():
 
 
 def test_route_follower_advances_within_r_and_switches_beta():
-    route = [Waypoint(0, 0, 1.0, 2.0, 4.0), Waypoint(5, 0, 1.0, 2.0, 4.0, beta=20.0, mu=1.0), Waypoint(10, 0, 2.0, 2.0, 4.0)]
+    route = [
+        Waypoint(0, 0, 1.0, 2.0, 4.0),
+        Waypoint(5, 0, 1.0, 2.0, 4.0, beta=20.0, mu=1.0),
+        Waypoint(10, 0, 2.0, 2.0, 4.0),
+    ]
     f = RouteFollower(route, beta=2.0, mu=0.2)
     state = np.zeros(NFIELDS)
     state[X], state[Y] = 3.0, 3.0
@@ -130,16 +158,39 @@ def test_command_follower_rejects_and_changes_nothing(commands):
     state = im.setup.states[3].copy()
     before = follower.control(state, 0)
     body = json.loads(im.command.encode(secret))["body"]
-    bad = [b"", b"{", b"null", b"[]", b"\xff\xfe", b"x" * 70000, im.command.encode(os.urandom(32)),
-           json.dumps({"v": 2, "body": body, "sig": "0"}).encode(), json.dumps({"v": 1, "body": body}).encode(),
-           b"[" * 30000 + b"]" * 30000, b'{"v":1,"body":{"seq":1e400},"sig":"00"}', b'{"v":1,"body":{"seq":NaN},"sig":"00"}',
-           json.dumps({"v": 1, "body": body, "sig": "\u00e9" * 64}, ensure_ascii=False).encode()]
+    bad = [
+        b"",
+        b"{",
+        b"null",
+        b"[]",
+        b"\xff\xfe",
+        b"x" * 70000,
+        im.command.encode(os.urandom(32)),
+        json.dumps({"v": 2, "body": body, "sig": "0"}).encode(),
+        json.dumps({"v": 1, "body": body}).encode(),
+        b"[" * 30000 + b"]" * 30000,
+        b'{"v":1,"body":{"seq":1e400},"sig":"00"}',
+        b'{"v":1,"body":{"seq":NaN},"sig":"00"}',
+        json.dumps({"v": 1, "body": body, "sig": "\u00e9" * 64}, ensure_ascii=False).encode(),
+    ]
     # strictly validated even when correctly signed (a compromised or buggy coordinator)
-    for path, value in ((("seq",), -1), (("seq",), True), (("n_agents",), 0), (("classes",), []),
-                        (("classes", 0, "share"), "1"), (("classes", 0, "route"), []), (("classes", 0, "route", 0, "x"), 1e300),
-                        (("classes", 0, "route", 0, "alpha"), -1.0), (("classes", 0, "route", 0, "r"), None),
-                        (("classes", 0, "route", 0, "id"), 3), (("classes", 0, "positions"), [[0, 0]]), (("ids",), [1, 2]),
-                        (("beta",), float("inf")), (("gesture",), "x" * 65), (("extra",), [])):
+    for path, value in (
+        (("seq",), -1),
+        (("seq",), True),
+        (("n_agents",), 0),
+        (("classes",), []),
+        (("classes", 0, "share"), "1"),
+        (("classes", 0, "route"), []),
+        (("classes", 0, "route", 0, "x"), 1e300),
+        (("classes", 0, "route", 0, "alpha"), -1.0),
+        (("classes", 0, "route", 0, "r"), None),
+        (("classes", 0, "route", 0, "id"), 3),
+        (("classes", 0, "positions"), [[0, 0]]),
+        (("ids",), [1, 2]),
+        (("beta",), float("inf")),
+        (("gesture",), "x" * 65),
+        (("extra",), []),
+    ):
         b = copy.deepcopy(body)
         target = b
         for k in path[:-1]:
@@ -173,20 +224,24 @@ def test_the_signature_covers_the_bytes_sent(commands):
     cmd = commands["v", "region"].command
     secret = os.urandom(32)
     sent = cmd.encode(secret)
-    body, sig = sent[len(b'{"v":1,"body":'):-74], sent[-66:-2]
+    body, sig = sent[len(b'{"v":1,"body":') : -74], sent[-66:-2]
     assert verify(sent, secret) == body == _canonical(cmd.body())
     spaced = json.dumps(json.loads(body), sort_keys=True, indent=1).encode()
     assert json.loads(spaced) == json.loads(body) and spaced != body
-    for forged in (b'{"v":1,"body":' + spaced + b',"sig":"' + sig + b'"}',
-                   b'{"v":1,"body":' + body + b' ,"sig":"' + sig + b'"}'):
+    for forged in (
+        b'{"v":1,"body":' + spaced + b',"sig":"' + sig + b'"}',
+        b'{"v":1,"body":' + body + b' ,"sig":"' + sig + b'"}',
+    ):
         with pytest.raises(CommandRejected) as exc:
             decode(forged, secret)
         assert exc.value.reason == "signature"
     resigned = sign_raw(spaced, secret)
     assert decode(resigned, secret) == cmd
     # verified before parsing: a forged envelope whose body is no JSON is a forgery; signed, it is malformed
-    for data, reason in ((b'{"v":1,"body":not json,"sig":"' + sig + b'"}', "signature"),
-                         (sign_raw(b"not json", secret), "malformed")):
+    for data, reason in (
+        (b'{"v":1,"body":not json,"sig":"' + sig + b'"}', "signature"),
+        (sign_raw(b"not json", secret), "malformed"),
+    ):
         with pytest.raises(CommandRejected) as exc:
             decode(data, secret)
         assert exc.value.reason == reason

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coordinator.control.route import class_of
 from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.route import class_of
 from fluidswarm.recording.reader import load_run
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
@@ -25,9 +25,27 @@ WAVE2_SIDEWAYS = 14  # perception/data/weizmann_wave2_labels.json: person0 frame
 
 
 def imitate(path: Path, out: Path, agents: int, steps: int, *extra: str):
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(path), "--agents", str(agents), "--steps",
-                        str(steps), "--out", str(out), "--json", *extra], capture_output=True, text=True, timeout=300,
-                       cwd=REPO)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "imitate",
+            str(path),
+            "--agents",
+            str(agents),
+            "--steps",
+            str(steps),
+            "--out",
+            str(out),
+            "--json",
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=REPO,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     record = json.loads(r.stdout)  # the whole of stdout: one JSON object
     assert record["kind"] == "imitation" and record["finished"] == agents
@@ -55,12 +73,21 @@ def imitations(request, tmp_path_factory, shared_image):
     """The `imitate` runs of the module's selected tests, side by side (they count steps, not seconds; each
     keeps about one of the two cores busy): name -> future of imitate()'s (ids, positions, fidelity)."""
     out = tmp_path_factory.mktemp("imitate")
-    runs = {"v": (shared_image(2), out / "v", 60, 500), "one": (shared_image(1), out / "one", 40, 450),
-            "wave": (WAVE2, out / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS), "--controller", "region")}
-    needs = {"test_v_sign_two_branches_and_one_finger_one_elongated_branch": ("v", "one"),
-             "test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso": ("wave",)}
-    selected = {name for item in request.session.items if item.module is request.module
-                for name in needs.get(item.originalname, ())}
+    runs = {
+        "v": (shared_image(2), out / "v", 60, 500),
+        "one": (shared_image(1), out / "one", 40, 450),
+        "wave": (WAVE2, out / "wave", 48, 450, "--frame", str(WAVE2_SIDEWAYS), "--controller", "region"),
+    }
+    needs = {
+        "test_v_sign_two_branches_and_one_finger_one_elongated_branch": ("v", "one"),
+        "test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso": ("wave",),
+    }
+    selected = {
+        name
+        for item in request.session.items
+        if item.module is request.module
+        for name in needs.get(item.originalname, ())
+    }
     with ThreadPoolExecutor(len(runs)) as pool:
         yield {name: pool.submit(imitate, *args) for name, args in runs.items() if name in selected}
 
@@ -81,9 +108,11 @@ def test_v_sign_two_branches_and_one_finger_one_elongated_branch(imitations, sha
     top1 = top_third_y(shared_image(1), 40)
     n1, _gap1 = branches(pos1, top1)
     extent = np.ptp(pos1, axis=0)
-    print(f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['iou']}; "
-          f"one finger: {n1} branch above y={top1:.1f} m, extent x {extent[0]:.1f} m, y {extent[1]:.1f} m, "
-          f"iou {fig1['iou']}")
+    print(
+        f"V: {n2} branches above y={top_y:.1f} m, widest gap {gap2:.2f} m, iou {fig2['iou']}; "
+        f"one finger: {n1} branch above y={top1:.1f} m, extent x {extent[0]:.1f} m, y {extent[1]:.1f} m, "
+        f"iou {fig1['iou']}"
+    )
     assert n2 == 2 and gap2 > 1.5
     assert n1 == 1 and extent[1] > 1.5 * extent[0]  # one elongated (upright) branch over the palm
     assert fig2["iou"] >= 0.7 and fig1["iou"] >= 0.7
@@ -103,8 +132,10 @@ def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(imitations)
     # the torso column: its particles' x extent around the torso centre
     t_lo, t_hi = np.percentile(torso[:, 0], [10, 90])
     ty = np.median(torso[:, 1])
-    print(f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; right arm x {np.round(right[:, 0], 1)}; "
-          f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['iou']}")
+    print(
+        f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; right arm x {np.round(right[:, 0], 1)}; "
+        f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['iou']}"
+    )
     assert np.all(left[:, 0] < t_lo) and np.all(right[:, 0] > t_hi)
     # sideways: the arms reach out at least as far as the torso is wide, above the torso's middle
     width = t_hi - t_lo

@@ -17,15 +17,14 @@ import numpy as np
 import pytest
 import zenoh
 
-from agent.protocol import keys
 from agent.launcher import Launcher, run_swarm
-from coordinator.control.route import class_counts, class_of, followers_for
+from agent.protocol import keys
+from agent.protocol.command import CommandRejected, decode
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
-from agent.protocol.command import CommandRejected, decode
 from coordinator.control.imitation_setup import prepare
-from fluidswarm.recording.reader import load_run
+from coordinator.control.route import class_counts, class_of, followers_for
 from tests.swarm_helpers import PER_PARTICLE, field_names, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
@@ -71,7 +70,9 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
 
         def coordinator_and_rogue():
             cred = la.access.env_for("coordinator")
-            s = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
+            s = zenoh.open(
+                client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"])
+            )
             try:
                 while not stop.is_set():
                     s.put(keys.command_key(la.run), good)  # the real coordinator keeps republishing
@@ -90,7 +91,9 @@ def test_security_rogue_commands_change_nothing_and_are_counted():
         finally:
             stop.set()
             t.join(10)
-    ref = PerParticleDriver(im.setup.ids, im.setup.states, followers_for(im.command, im.setup.ids), im.setup.params).run(steps)
+    ref = PerParticleDriver(
+        im.setup.ids, im.setup.states, followers_for(im.command, im.setup.ids), im.setup.params
+    ).run(steps)
     got = np.array([res.finals[i].state for i in im.setup.ids])
     rejected = {}
     for r in res.finals.values():
@@ -109,8 +112,22 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
     """The coordinator's commands are parameters only, and a state publisher finds no subscriber in it."""
     with Launcher(commands=True) as la:
         env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
-        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
-                                  "--input", str(V_SIGN), "--agents", "30"], env=env)
+        coord = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "coordinator",
+                "--connect",
+                la.endpoint,
+                "--run",
+                la.run,
+                "--input",
+                str(V_SIGN),
+                "--agents",
+                "30",
+            ],
+            env=env,
+        )
         got = []
         three = threading.Event()
 
@@ -123,7 +140,9 @@ def test_coordinator_publishes_commands_only_and_never_listens_to_states(tmp_pat
         try:
             assert three.wait(30), f"{len(got)} commands in 30 s"
             cred = la.access.env_for_agent(0)
-            probe = zenoh.open(client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"]))
+            probe = zenoh.open(
+                client_config([la.endpoint], cred["FLUIDSWARM_ZENOH_USER"], cred["FLUIDSWARM_ZENOH_PASSWORD"])
+            )
             # A cell key: agents hear states there at every access level (at `acl` the launcher's relay listens
             # on the agents' id keys, so a probe there would always find it)
             key = keys.cell_key(la.run, 3, 3)
@@ -154,8 +173,22 @@ def test_late_joiner_gets_the_command_within_one_second():
     im = prepare(cv2.imread(str(V_SIGN)), 12)
     with Launcher(commands=True) as la:
         env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
-        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
-                                  "--input", str(V_SIGN), "--agents", "12"], env=env)
+        coord = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "coordinator",
+                "--connect",
+                la.endpoint,
+                "--run",
+                la.run,
+                "--input",
+                str(V_SIGN),
+                "--agents",
+                "12",
+            ],
+            env=env,
+        )
         la.coordinator = coord
         la.track_progress()
 
@@ -167,6 +200,7 @@ def test_late_joiner_gets_the_command_within_one_second():
                 state[X], state[Y] = home.x, home.y
                 spec = l.spec_for(100, state, im.setup.controls[0], im.setup.params, 150, join=True)
                 l.spawn(spec)
+
             threading.Thread(target=go, daemon=True).start()
 
         try:
@@ -196,8 +230,24 @@ def test_coordinator_publishes_a_new_command_when_the_gesture_changes():
         env = dict(os.environ, FLUIDSWARM_SECRET=secret.hex(), **la.access.env_for("coordinator"))
         got = []
         sub = la.session.declare_subscriber(keys.command_key(la.run), lambda s: got.append(s.payload.to_bytes()))
-        coord = subprocess.Popen([sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run,
-                                  "--input", str(clip), "--agents", "20", "--frame-seconds", "0.4"], env=env)
+        coord = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "coordinator",
+                "--connect",
+                la.endpoint,
+                "--run",
+                la.run,
+                "--input",
+                str(clip),
+                "--agents",
+                "20",
+                "--frame-seconds",
+                "0.4",
+            ],
+            env=env,
+        )
         try:
             deadline = time.monotonic() + 40
             while time.monotonic() < deadline:

@@ -15,8 +15,8 @@ from agent.protocol.events import MAX_BYTES, AgentEvent, EventKind, Sighting, de
 VECTORS = Path(__file__).resolve().parent / "vectors"
 sys.path.insert(0, str(VECTORS))
 
-from make.ctl import ctl_vectors, expected  # noqa: E402
-from make.events import event_vectors  # noqa: E402
+from make.ctl import ctl_vectors, expected
+from make.events import event_vectors
 
 CTL = json.loads((VECTORS / "ctl.json").read_text())
 EVENTS = json.loads((VECTORS / "events.json").read_text())
@@ -61,7 +61,9 @@ def test_events_decode_as_the_vectors_say(case):
 
 
 def test_events_round_trip_and_oversized_ones_are_dropped():
-    ev = AgentEvent(3, 17, EventKind.NEIGHBOUR_TIMEOUT, (4, 9), (Sighting(4, 15, 0.5, True), Sighting(9, -1, None, False)))
+    ev = AgentEvent(
+        3, 17, EventKind.NEIGHBOUR_TIMEOUT, (4, 9), (Sighting(4, 15, 0.5, True), Sighting(9, -1, None, False))
+    )
     assert decode_event(encode_event(ev)) == ev
     started = encode_event(AgentEvent(3, 0, EventKind.STARTED))
     assert decode_event(started) == AgentEvent(3, 0, EventKind.STARTED)

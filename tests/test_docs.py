@@ -21,8 +21,9 @@ RESULTS = REPO / "docs" / "benchmarks" / "results.json"
 def test_the_readme_benchmark_figures_are_the_results_json_ones():
     readme = README.read_text()
     assert readme.count(README_BEGIN) == 1 and readme.count(README_END) == 1
-    assert with_readme_section(readme, BenchRecord.load(RESULTS), FIT_MAX_N) == readme, \
+    assert with_readme_section(readme, BenchRecord.load(RESULTS), FIT_MAX_N) == readme, (
         "README.md's benchmark figures differ from docs/benchmarks/results.json: run `fluidswarm bench --readme`"
+    )
 
 
 def test_the_section_says_what_the_record_says():

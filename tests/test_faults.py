@@ -49,9 +49,25 @@ def comm(pid: int) -> str:
 def test_a_killed_router_ends_the_launch_within_5_s_naming_it_and_leaves_nothing(tmp_path):
     path = tmp_path / "run.mcap"
     port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "20", "--steps", "100000",
-                             "--record", str(path), "--live", f"127.0.0.1:{port}"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "launch",
+            "-n",
+            "20",
+            "--steps",
+            "100000",
+            "--record",
+            str(path),
+            "--live",
+            f"127.0.0.1:{port}",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().startswith("run=")
         wait_for_live_step(port, 30)  # stepping, and being recorded
@@ -84,9 +100,26 @@ def cmdline(pid: int) -> list[str]:
 
 def test_a_coordinator_killed_mid_imitation_ends_it_naming_the_coordinator(tmp_path):
     port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "fluidswarm", "imitate", str(V_SIGN), "--agents", "16", "--steps",
-                             "100000", "--out", str(tmp_path), "--live", f"127.0.0.1:{port}"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "imitate",
+            str(V_SIGN),
+            "--agents",
+            "16",
+            "--steps",
+            "100000",
+            "--out",
+            str(tmp_path),
+            "--live",
+            f"127.0.0.1:{port}",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         wait_for_live_step(port, 20, timeout=120)
         family = descendants(proc.pid)
@@ -119,6 +152,7 @@ def test_a_killed_recorder_ends_the_run_and_its_file_keeps_every_step_older_than
                 time.sleep(5.0)
                 killed["t"] = time.monotonic()
                 os.kill(launcher.recorder.proc.pid, signal.SIGKILL)
+
             threading.Thread(target=go, daemon=True).start()
 
         with pytest.raises(HelperLost) as info:
@@ -157,8 +191,10 @@ def test_two_agents_frozen_for_3_s_rejoin_and_all_30_finish(tmp_path):
                 def rejoined() -> set[int]:
                     with launcher.swarm.changed:
                         return {e.id for e in launcher.swarm.events if e.kind is EventKind.REJOINED}
+
                 wait_until(lambda: rejoined() >= set(victims), 30.0)
                 launcher.end_at(launcher.max_step + 30)  # a few steps together after the rejoin, then the end
+
             threading.Thread(target=go, daemon=True).start()
 
         result = run_swarm(setup, 100000, launcher=la, on_started=freeze, run_timeout=90)
@@ -180,13 +216,21 @@ def test_two_agents_frozen_for_3_s_rejoin_and_all_30_finish(tmp_path):
 
 def test_ids_beyond_the_routers_bound_are_one_line_and_nothing_starts(tmp_path):
     t0 = time.monotonic()
-    out = subprocess.run([sys.executable, "-m", "fluidswarm", "launch", "-n", str(9000), "--steps", "5"],
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "launch", "-n", str(9000), "--steps", "5"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     err = out.stderr.strip().splitlines()
     assert out.returncode != 0 and len(err) == 1 and f"0..{AGENT_CAPACITY - 1}" in err[0], out.stderr
     assert "Traceback" not in out.stderr and time.monotonic() - t0 < 30
     bad = tmp_path / "no" / "such" / "x.mcap"
-    out = subprocess.run([sys.executable, "-m", "fluidswarm", "launch", "-n", "3", "--steps", "5", "--record",
-                          str(bad)], capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "launch", "-n", "3", "--steps", "5", "--record", str(bad)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     err = out.stderr.strip().splitlines()
     assert out.returncode != 0 and len(err) == 1 and str(bad) in err[0] and "no such directory" in err[0], out.stderr

@@ -9,25 +9,24 @@ oracle (coordinator/control/route.py FillFollower through followers_for) puts th
 from __future__ import annotations
 
 import threading
-from dataclasses import replace
 import time
-
-import pytest
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 import zenoh
 
+from agent.fill import inside, zone_material
+from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
 from agent.protocol.access import PASSWORD_ENV, USER_ENV
-from agent.protocol.session import client_config
-from agent.fill import inside, zone_material
 from agent.protocol.command import Zone
-from agent.launcher import Launcher, run_swarm
-from coordinator.control.route import followers_for
+from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
 from coordinator.control.imitation_setup import prepare_observation
+from coordinator.control.route import followers_for
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
@@ -49,7 +48,9 @@ def test_native_swarm_fills_a_shape_with_a_hole_like_the_reference():
     # switch stiffness and viscosity, each by its own position.
     outer = np.array(im.command.fill.rings[0])
     (x0, y0), (x1, y1) = outer.min(axis=0), outer.max(axis=0)
-    zone = Zone(float(x0 + 0.25 * (x1 - x0)), float(0.5 * (y0 + y1)), 0.0, 1.0, 0.5 * (y1 - y0), 0.25 * (x1 - x0), 20.0, 1.0)
+    zone = Zone(
+        float(x0 + 0.25 * (x1 - x0)), float(0.5 * (y0 + y1)), 0.0, 1.0, 0.5 * (y1 - y0), 0.25 * (x1 - x0), 20.0, 1.0
+    )
     cmd = replace(im.command, fill=replace(im.command.fill, zones=(zone,)))
     assert cmd.fill is not None and len(cmd.fill.rings) == 2  # the outer boundary and the hole
     start = setup.states[:, [X, Y]]
@@ -84,10 +85,14 @@ def test_native_swarm_fills_a_shape_with_a_hole_like_the_reference():
     err_vec = np.abs(got[:, [X, Y]] - vec[:, [X, Y]]).max()
     err_per = np.abs(got[:, [X, Y]] - per[:, [X, Y]]).max()
     inside_end = sum(inside(cmd.fill.rings, x, y) for x, y in got[:, [X, Y]])
-    in_zone = [zone_material(cmd.fill.zones, x, y, 0.0, 0.0) != (0.0, 0.0) for x, y in np.vstack([start, got[:, [X, Y]]])]
+    in_zone = [
+        zone_material(cmd.fill.zones, x, y, 0.0, 0.0) != (0.0, 0.0) for x, y in np.vstack([start, got[:, [X, Y]]])
+    ]
     assert 0 < sum(in_zone) < len(in_zone)  # both materials are in play
-    print(f"fill swarm: max |native - vectorised| {err_vec:.2e} m, |native - per-particle| {err_per:.2e} m; "
-          f"inside {N_AGENTS - sum(outside)} -> {inside_end} of {N_AGENTS}")
+    print(
+        f"fill swarm: max |native - vectorised| {err_vec:.2e} m, |native - per-particle| {err_per:.2e} m; "
+        f"inside {N_AGENTS - sum(outside)} -> {inside_end} of {N_AGENTS}"
+    )
     assert err_vec <= 1e-9 and err_per <= 1e-9
     assert np.abs(got[:, [X, Y]] - start).max() > 1.0  # the command moved them
     assert inside_end > N_AGENTS - sum(outside)  # and the shape drew them in

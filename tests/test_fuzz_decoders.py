@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "fuzz"))
 
-import python_targets  # noqa: E402
-import seeds  # noqa: E402
+import python_targets
+import seeds
 
 EXAMPLES = {"mcap": 40, "scenario": 100, "users": 100}  # file-backed targets cost more per input
 FOUND = sorted((REPO / "tests" / "vectors" / "fuzz").glob("python_*/*"))
@@ -35,7 +35,7 @@ def mutated(draw, pool: list[bytes]) -> bytes:
         elif op == "i":
             data[at:at] = draw(st.binary(min_size=1, max_size=8))
         else:
-            del data[at:at + draw(st.integers(1, 16))]
+            del data[at : at + draw(st.integers(1, 16))]
     return bytes(data)
 
 
@@ -53,8 +53,13 @@ def test_seeds_pass(name):
 def test_random_and_mutated_inputs(name):
     target, pool = python_targets.TARGETS[name], seeds.PYTHON[name]()
 
-    @settings(max_examples=EXAMPLES.get(name, 150), deadline=None, derandomize=True, database=None,
-              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    @settings(
+        max_examples=EXAMPLES.get(name, 150),
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    )
     @given(st.one_of(st.binary(max_size=300), mutated(pool)))
     def run(data):
         target(data)

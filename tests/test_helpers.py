@@ -26,7 +26,9 @@ def test_a_killed_helper_is_named_with_its_signal_its_time_and_the_step():
         with pytest.raises(HelperLost) as info:
             helpers.check()
         text = str(info.value)
-        assert text.startswith("lost the embedded router (fluidswarm-router, pid 1): it was killed by signal 9 (SIGKILL)")
+        assert text.startswith(
+            "lost the embedded router (fluidswarm-router, pid 1): it was killed by signal 9 (SIGKILL)"
+        )
         assert "s into the run, at step 412 (its last words); the swarm was stopped" in text and "\n" not in text
         with pytest.raises(HelperLost):  # and again at every later check
             helpers.check()

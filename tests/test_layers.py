@@ -20,11 +20,29 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("perception", ("perception",)),
     ("control", ("coordinator.control",)),
     ("processes", ("agent", "coordinator", "fluidswarm.router", "fluidswarm.failures", "fluidswarm.recording")),
-    ("orchestration", ("fluidswarm.run", "fluidswarm.imitate", "fluidswarm.imitate_camera",
-                       "coordinator.imitate", "coordinator.imitate_camera", "coordinator.scenario_run")),
+    (
+        "orchestration",
+        (
+            "fluidswarm.run",
+            "fluidswarm.imitate",
+            "fluidswarm.imitate_camera",
+            "coordinator.imitate",
+            "coordinator.imitate_camera",
+            "coordinator.scenario_run",
+        ),
+    ),
     # the command line: every package's subcommand registration (`commands`) and what only it uses
-    ("application", ("fluidswarm", "agent.commands", "coordinator.commands", "perception.commands",
-                     "fluidswarm.recording.commands", "fluidswarm.recording.replay")),
+    (
+        "application",
+        (
+            "fluidswarm",
+            "agent.commands",
+            "coordinator.commands",
+            "perception.commands",
+            "fluidswarm.recording.commands",
+            "fluidswarm.recording.replay",
+        ),
+    ),
 ]
 
 
@@ -91,8 +109,10 @@ def test_imports_only_go_down_the_layers():
     for name, targets in edges.items():
         for target, line in targets:
             if layer_of(target) > layer_of(name):
-                upward.append(f"{known[name].relative_to(REPO)}:{line}: {name} ({LAYERS[layer_of(name)][0]}) "
-                              f"imports {target} ({LAYERS[layer_of(target)][0]})")
+                upward.append(
+                    f"{known[name].relative_to(REPO)}:{line}: {name} ({LAYERS[layer_of(name)][0]}) "
+                    f"imports {target} ({LAYERS[layer_of(target)][0]})"
+                )
     assert not upward, "imports up the layers:\n" + "\n".join(sorted(set(upward)))
 
 
@@ -105,7 +125,7 @@ def test_no_import_cycle():
         state[name] = 1
         for target, _ in edges[name]:
             if state.get(target) == 1:
-                cycles.append(" -> ".join(path[path.index(target):] + [target]))
+                cycles.append(" -> ".join(path[path.index(target) :] + [target]))
             elif target not in state:
                 visit(target, path + [target])
         state[name] = 2
@@ -123,7 +143,12 @@ def test_the_checker_sees_function_level_and_relative_imports(tmp_path):
     (pkg / "__init__.py").write_text("")
     (pkg / "a.py").write_text("def f():\n    from coordinator.control import route\n    from . import b\n")
     (pkg / "b.py").write_text("")
-    known = {"agent": pkg / "__init__.py", "agent.a": pkg / "a.py", "agent.b": pkg / "b.py",
-             "coordinator.control.route": Path("route.py"), "coordinator.control": Path("__init__.py")}
+    known = {
+        "agent": pkg / "__init__.py",
+        "agent.a": pkg / "a.py",
+        "agent.b": pkg / "b.py",
+        "coordinator.control.route": Path("route.py"),
+        "coordinator.control": Path("__init__.py"),
+    }
     assert imports("agent.a", pkg / "a.py", known) == [("coordinator.control.route", 2), ("agent.b", 3)]
     assert layer_of("coordinator.control.route") > layer_of("agent.protocol.wire") > layer_of("agent.sph.kernel")

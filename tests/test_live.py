@@ -24,9 +24,25 @@ V_SIGN = Path(__file__).resolve().parents[1] / "scenarios" / "inputs" / "digit2_
 def test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete(tmp_path):
     """An imitation of the V-sign photograph with 16 agents, watched by a client that subscribes to every channel."""
     port = free_port()
-    run = subprocess.Popen(FLUIDSWARM + ["imitate", str(V_SIGN), "--agents", "16", "--steps", "400", "--out", str(tmp_path),
-                                         "--live", f"127.0.0.1:{port}", "--json"],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    run = subprocess.Popen(
+        FLUIDSWARM
+        + [
+            "imitate",
+            str(V_SIGN),
+            "--agents",
+            "16",
+            "--steps",
+            "400",
+            "--out",
+            str(tmp_path),
+            "--live",
+            f"127.0.0.1:{port}",
+            "--json",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     received: dict[int, float] = {}  # step -> when it arrived
     other: dict[str, list[dict]] = {}  # leaf -> messages
     try:
@@ -94,8 +110,23 @@ def test_live_port_in_use_is_one_line_and_exit_1(tmp_path):
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        res = subprocess.run(FLUIDSWARM + ["launch", "-n", "4", "--steps", "10", "--record", str(tmp_path / "x.mcap"),
-                                           "--live", f"127.0.0.1:{port}"], capture_output=True, text=True, timeout=60)
+        res = subprocess.run(
+            FLUIDSWARM
+            + [
+                "launch",
+                "-n",
+                "4",
+                "--steps",
+                "10",
+                "--record",
+                str(tmp_path / "x.mcap"),
+                "--live",
+                f"127.0.0.1:{port}",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
     assert res.returncode == 1
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and f"--live 127.0.0.1:{port}: port in use" in lines[0], res.stderr

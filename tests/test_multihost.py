@@ -29,15 +29,56 @@ def _openssl(*args: str, cwd) -> None:
 
 def make_certificates(folder, routers: dict[str, str]) -> dict[str, tuple[str, str]]:
     """A throw-away CA and, per router, a key and a certificate for its address signed by it (openssl CLI)."""
-    _openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca.key", "-out", "ca.pem", "-days", "2",
-             "-subj", "/CN=fluidswarm test CA", cwd=folder)
+    _openssl(
+        "req",
+        "-x509",
+        "-newkey",
+        "rsa:2048",
+        "-nodes",
+        "-keyout",
+        "ca.key",
+        "-out",
+        "ca.pem",
+        "-days",
+        "2",
+        "-subj",
+        "/CN=fluidswarm test CA",
+        cwd=folder,
+    )
     out = {}
     for name, ip in routers.items():
-        _openssl("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}.key", "-out", f"{name}.csr",
-                 "-subj", f"/CN=router-{name}", cwd=folder)
+        _openssl(
+            "req",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            f"{name}.key",
+            "-out",
+            f"{name}.csr",
+            "-subj",
+            f"/CN=router-{name}",
+            cwd=folder,
+        )
         (folder / f"{name}.ext").write_text(f"subjectAltName=IP:{ip}\n")
-        _openssl("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key", "-CAcreateserial",
-                 "-out", f"{name}.pem", "-days", "2", "-extfile", f"{name}.ext", cwd=folder)
+        _openssl(
+            "x509",
+            "-req",
+            "-in",
+            f"{name}.csr",
+            "-CA",
+            "ca.pem",
+            "-CAkey",
+            "ca.key",
+            "-CAcreateserial",
+            "-out",
+            f"{name}.pem",
+            "-days",
+            "2",
+            "-extfile",
+            f"{name}.ext",
+            cwd=folder,
+        )
         out[name] = (str(folder / f"{name}.pem"), str(folder / f"{name}.key"))
     return out
 
@@ -54,13 +95,24 @@ def hosts(tmp_path):
     a_c = h.addr[("a", "c")]
     certs = make_certificates(tmp_path, {"a": a, "b": b})
     ca = str(tmp_path / "ca.pem")
-    tls = lambda name: ["--tls-ca", ca, "--tls-cert", certs[name][0], "--tls-key", certs[name][1]]  # noqa: E731
+    tls = lambda name: ["--tls-ca", ca, "--tls-cert", certs[name][0], "--tls-key", certs[name][1]]
     auth = ["--auth-file", str(users)]
-    h.popen("a", FS + ["router", "--listen", f"tcp/{a}:{PORT}", "--listen", f"tcp/{a_c}:{PORT}",
-                       "--listen", f"tls/{a}:{TLS_PORT}"] + auth + tls("a"), stdout=subprocess.PIPE, text=True)
+    h.popen(
+        "a",
+        FS
+        + ["router", "--listen", f"tcp/{a}:{PORT}", "--listen", f"tcp/{a_c}:{PORT}", "--listen", f"tls/{a}:{TLS_PORT}"]
+        + auth
+        + tls("a"),
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     # B reaches A only over TLS: if the TLS link did not come up, the split swarm could not start
-    h.popen("b", FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tls/{a}:{TLS_PORT}"] + auth + tls("b"),
-            stdout=subprocess.PIPE, text=True)
+    h.popen(
+        "b",
+        FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tls/{a}:{TLS_PORT}"] + auth + tls("b"),
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(2.0)
     # each launcher hands its processes their lines: host A's launcher reads the file named by --auth-file,
     # host B's the one in FLUIDSWARM_AUTH_FILE (both ways a launcher gets it)
@@ -83,13 +135,23 @@ def test_split_swarm_over_tls_reproduces_single_host_result_and_rogues_are_locke
     rogue_target = hosts.addr[("a", "c")]
     common = ["verify", "--agents", "40", "--steps", "120", "--run", "split", "--json"]
     kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"] + hosts.auth["a"],
-                     env=hosts.env["a"], **kw)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
-                     env=hosts.env["b"], **kw)
+    pa = hosts.popen(
+        "a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}"] + hosts.auth["a"], env=hosts.env["a"], **kw
+    )
+    pb = hosts.popen(
+        "b",
+        FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
+        env=hosts.env["b"],
+        **kw,
+    )
     # the rogue knows a real user name (agent-3) but not its password, then tries without any
-    rogue = hosts.popen("c", [sys.executable, "-c", ROGUE, f"tcp/{rogue_target}:{PORT}"],
-                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    rogue = hosts.popen(
+        "c",
+        [sys.executable, "-c", ROGUE, f"tcp/{rogue_target}:{PORT}"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     out_a, err_a = pa.communicate(timeout=300)
     out_b, err_b = pb.communicate(timeout=300)
     r_out, r_err = rogue.communicate(timeout=60)
@@ -108,10 +170,18 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     steps = 4000
     common = ["launch", "-n", "40", "--steps", str(steps), "--run", "cut", "--timeout", "1.0", "--json"]
     kw = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pa = hosts.popen("a", FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)]
-                     + hosts.auth["a"], env=hosts.env["a"], **kw)
-    pb = hosts.popen("b", FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
-                     env=hosts.env["b"], **kw)
+    pa = hosts.popen(
+        "a",
+        FS + common + ["--ids", "0-19", "--connect", f"tcp/{a}:{PORT}", "--record", str(mcap)] + hosts.auth["a"],
+        env=hosts.env["a"],
+        **kw,
+    )
+    pb = hosts.popen(
+        "b",
+        FS + common + ["--ids", "20-39", "--connect", f"tcp/{b}:{PORT}"] + hosts.auth["b"],
+        env=hosts.env["b"],
+        **kw,
+    )
     time.sleep(9.0)  # start-up, then some lockstep steps with both hosts
     router_b = hosts.procs[1]
     router_b.kill()
@@ -122,11 +192,13 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     print({k: fa[k] for k in ("finished", "steps_per_second", "failures")})
     assert fa["finished"] == 20
     run = load_run(mcap, images=False)
-    lost = {e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < steps}
+    lost = {
+        e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < steps
+    }
     assert len(lost) >= 10
 
 
-ROGUE = r'''
+ROGUE = r"""
 import json, sys, zenoh
 def attempt(user, password):
     conf = zenoh.Config()
@@ -146,4 +218,4 @@ def attempt(user, password):
         s.put("fluidswarm/split/ctl/stop", b"stop")
     return "connected"
 print("wrong_password=" + attempt("agent-3", "not-the-password"), "no_credentials=" + attempt("", ""))
-'''
+"""

@@ -27,10 +27,18 @@ def split(hosts, command: list[str], run: str, a_extra=(), b_extra=()) -> tuple[
     a, b = hosts.addr[("a", "b")], hosts.addr[("b", "a")]
     half = AGENTS // 2
     common = FS + command + ["--agents", str(AGENTS), "--run", run, "--json"]
-    pa = hosts.popen("a", common + ["--ids", f"0-{half - 1}", "--connect", f"tcp/{a}:{PORT}", *a_extra]
-                     + hosts.auth["a"], env=hosts.env["a"], **KW)
-    pb = hosts.popen("b", common + ["--ids", f"{half}-{AGENTS - 1}", "--connect", f"tcp/{b}:{PORT}", *b_extra]
-                     + hosts.auth["b"], env=hosts.env["b"], **KW)
+    pa = hosts.popen(
+        "a",
+        common + ["--ids", f"0-{half - 1}", "--connect", f"tcp/{a}:{PORT}", *a_extra] + hosts.auth["a"],
+        env=hosts.env["a"],
+        **KW,
+    )
+    pb = hosts.popen(
+        "b",
+        common + ["--ids", f"{half}-{AGENTS - 1}", "--connect", f"tcp/{b}:{PORT}", *b_extra] + hosts.auth["b"],
+        env=hosts.env["b"],
+        **KW,
+    )
     return pa, pb
 
 
@@ -39,8 +47,10 @@ class Output:
 
     def __init__(self, proc: subprocess.Popen):
         self.proc, self.out, self.err = proc, [], []
-        self._threads = [threading.Thread(target=self._read, args=(f, into), daemon=True)
-                         for f, into in ((proc.stdout, self.out), (proc.stderr, self.err))]
+        self._threads = [
+            threading.Thread(target=self._read, args=(f, into), daemon=True)
+            for f, into in ((proc.stdout, self.out), (proc.stderr, self.err))
+        ]
         for t in self._threads:
             t.start()
 
@@ -62,7 +72,7 @@ class Output:
 
 # Watches a run's states from host A as the recorder role does (subscribe only) and prints the swarm's
 # highest step each time it grows, with the time: when the stepping began, stalled and resumed.
-OBSERVER = r'''
+OBSERVER = r"""
 import json, struct, sys, threading, time, zenoh
 endpoint, run, user, password = sys.argv[1:5]
 conf = zenoh.Config()
@@ -92,7 +102,7 @@ with session as s:
     sub = s.declare_subscriber(f"fluidswarm/{run}/state/**", seen)
     print("ready", flush=True)
     sys.stdin.read()  # until the test closes our stdin
-'''
+"""
 
 
 class Observer:
@@ -103,8 +113,14 @@ class Observer:
 
         rec = {c.user: c for c in read_users_file(str(hosts.users))}["recorder"]
         a = hosts.addr[("a", "b")]
-        self.proc = hosts.popen("a", [sys.executable, "-c", OBSERVER, f"tcp/{a}:{PORT}", run, rec.user, rec.password],
-                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.proc = hosts.popen(
+            "a",
+            [sys.executable, "-c", OBSERVER, f"tcp/{a}:{PORT}", run, rec.user, rec.password],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         self.steps: list[tuple[float, int]] = []
         self.ready = threading.Event()
         threading.Thread(target=self._read, daemon=True).start()
@@ -176,8 +192,15 @@ def test_a_two_second_partition_heals_and_the_split_run_stays_exact(hosts):
     resumed = obs.first_after(t_heal)
     assert resumed is not None and obs.top() >= 399
     stall = obs.longest_gap(t_cut, resumed[0])
-    print({"a": figures(fa), "b": figures(fb), "stall_s": round(stall, 2),
-           "resumed_after_heal_s": round(resumed[0] - t_heal, 2), "step_at_cut": step_at_cut})
+    print(
+        {
+            "a": figures(fa),
+            "b": figures(fb),
+            "stall_s": round(stall, 2),
+            "resumed_after_heal_s": round(resumed[0] - t_heal, 2),
+            "step_at_cut": step_at_cut,
+        }
+    )
     assert stall >= 1.5  # the partition came mid-run and stopped the stepping while it lasted
 
 
@@ -185,8 +208,12 @@ def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finis
     mcap = tmp_path / "a.mcap"
     steps = 1500
     obs = Observer(hosts, "cut13")
-    pa, pb = (Output(p) for p in split(hosts, ["launch", "--steps", str(steps), "--timeout", "1.0"], "cut13",
-                                       a_extra=["--record", str(mcap)]))
+    pa, pb = (
+        Output(p)
+        for p in split(
+            hosts, ["launch", "--steps", str(steps), "--timeout", "1.0"], "cut13", a_extra=["--record", str(mcap)]
+        )
+    )
     try:
         obs.wait_step(30)
         t_cut, step_at_cut = time.time(), obs.top()
@@ -207,9 +234,16 @@ def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finis
     for e in sorted(run.events, key=lambda e: e.t):
         if e.kind == "died" and e.agent is not None and e.agent >= AGENTS // 2:
             died.setdefault(e.agent, e)
-    print({"a": figures(fa), "b_exit": code_b, "b": figures(record(out_b)) if code_b == 0 else err_b[-800:],
-           "step_at_cut": step_at_cut, "died_at_steps": sorted({e.step for e in died.values()}),
-           "cut_to_heal_s": round(t_heal - t_cut, 2)})
+    print(
+        {
+            "a": figures(fa),
+            "b_exit": code_b,
+            "b": figures(record(out_b)) if code_b == 0 else err_b[-800:],
+            "step_at_cut": step_at_cut,
+            "died_at_steps": sorted({e.step for e in died.values()}),
+            "cut_to_heal_s": round(t_heal - t_cut, 2),
+        }
+    )
     # every agent of host B is declared lost on host A while the link is cut, once Zenoh's lease (10 s) ran out
     assert set(died) == set(range(AGENTS // 2, AGENTS))
     # declared at the step the swarm stood at while it waited, not at the run's end (step 1500)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-import agent.executable as executable
+from agent import executable
 from fluidswarm.cli import main
 from fluidswarm.scenario import PACKAGED_SCENARIOS, load_scenario, scenarios_dir
 
@@ -41,8 +41,12 @@ def shipped() -> set[Path]:
 
 
 def test_every_source_package_is_listed_and_the_scenarios_are_one():
-    found = {".".join(p.parent.relative_to(REPO).parts) for root in ROOTS for p in (REPO / root).rglob("__init__.py")
-             if "native" not in p.parts}
+    found = {
+        ".".join(p.parent.relative_to(REPO).parts)
+        for root in ROOTS
+        for p in (REPO / root).rglob("__init__.py")
+        if "native" not in p.parts
+    }
     assert set(SETUPTOOLS["packages"]) == found | {PACKAGED_SCENARIOS}
     assert package_dir(PACKAGED_SCENARIOS) == REPO / "scenarios"  # the top-level folder stays where it is
     assert scenarios_dir() == REPO / "scenarios"  # a source tree reads it in place
@@ -50,9 +54,15 @@ def test_every_source_package_is_listed_and_the_scenarios_are_one():
 
 def test_every_file_of_the_packages_and_the_scenarios_ships():
     wheel = shipped()
-    files = [p for root in (*ROOTS, "scenarios") for p in (REPO / root).rglob("*")
-             if p.is_file() and "__pycache__" not in p.parts and "native" not in p.relative_to(REPO).parts
-             and p.suffix != ".pyc"]
+    files = [
+        p
+        for root in (*ROOTS, "scenarios")
+        for p in (REPO / root).rglob("*")
+        if p.is_file()
+        and "__pycache__" not in p.parts
+        and "native" not in p.relative_to(REPO).parts
+        and p.suffix != ".pyc"
+    ]
     assert len(files) > 100  # the walk found the tree
     missing = sorted(str(p.relative_to(REPO)) for p in files if p not in wheel)
     assert not missing, f"not in pyproject.toml's packages/package-data, so not installed: {missing}"
@@ -130,8 +140,12 @@ def test_the_lookup_covers_pips_layouts():
     assert dirs[0] == Path(sysconfig.get_path("scripts"))  # a venv's bin/, where the wheel's scripts go
     assert len(dirs) == len(set(dirs))
     prefix = Path("/opt/p")  # pip install --prefix /opt/p: /opt/p/lib/python3.X/site-packages/agent
-    assert executable._parent_above(prefix / "lib" / "python3.11" / "site-packages" / "agent",
-                                    "lib/python*/site-packages/agent") == prefix
+    assert (
+        executable._parent_above(
+            prefix / "lib" / "python3.11" / "site-packages" / "agent", "lib/python*/site-packages/agent"
+        )
+        == prefix
+    )
     assert executable._parent_above(Path("/opt/t/agent"), "lib/python*/site-packages/agent") is None
 
 

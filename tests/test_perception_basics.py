@@ -16,8 +16,12 @@ from perception.io import InputError, load_frames, load_image
 @pytest.mark.swarm
 def test_eval_classifier_best_pipeline_beats_the_thesis_baseline(shared_hands):
     # the plausibility of the shared hands' silhouettes: tests/test_perception_classifier.py
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "eval-classifier", "--classes", "0,1,2,4,5", "--method", "best"],
-                       capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "eval-classifier", "--classes", "0,1,2,4,5", "--method", "best"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     acc = float(lines[-1].split("=")[1])
@@ -41,7 +45,13 @@ def test_bad_inputs_give_one_line_errors(tmp_path):
         load_image(white)
     huge = tmp_path / "huge.png"
     # A valid PNG header announcing 20000 x 20000 pixels: refused before decoding.
-    header = b"\x89PNG\r\n\x1a\n" + (13).to_bytes(4, "big") + b"IHDR" + (20000).to_bytes(4, "big") * 2 + b"\x08\x02\x00\x00\x00"
+    header = (
+        b"\x89PNG\r\n\x1a\n"
+        + (13).to_bytes(4, "big")
+        + b"IHDR"
+        + (20000).to_bytes(4, "big") * 2
+        + b"\x08\x02\x00\x00\x00"
+    )
     huge.write_bytes(header + b"\x00" * 100)
     with pytest.raises(InputError, match="too large"):
         load_image(huge)
@@ -53,6 +63,8 @@ def test_bad_inputs_give_one_line_errors(tmp_path):
     (flat / "only").mkdir(parents=True)
     with pytest.raises(InputError, match="one sub-folder per class"):
         load_folder(flat)
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "imitate", str(white)], capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "imitate", str(white)], capture_output=True, text=True, timeout=60
+    )
     assert r.returncode == 1 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
     assert str(white) in r.stderr

@@ -16,7 +16,6 @@ from perception.tracking import track_boxes
 LABELS = Path(__file__).resolve().parents[1] / "perception" / "data" / "weizmann_wave2_labels.json"
 
 
-
 def from_horizontal(e) -> float:
     return min(e.orientation_deg, 180 - e.orientation_deg)
 
@@ -36,8 +35,10 @@ def test_wave2_arm_ellipses_follow_the_labelled_arm_poses(weizmann):
                         found += 1
                         angles[pose].append(from_horizontal(ells[arm]))
     side, up = np.array(angles["sideways"]), np.array(angles["up"])
-    print(f"arms found {found}/{total}; sideways mean {side.mean():.1f} max {side.max():.1f}; "
-          f"up mean {up.mean():.1f} min {up.min():.1f} (degrees from horizontal)")
+    print(
+        f"arms found {found}/{total}; sideways mean {side.mean():.1f} max {side.max():.1f}; "
+        f"up mean {up.mean():.1f} min {up.min():.1f} (degrees from horizontal)"
+    )
     assert found >= 0.95 * total
     assert side.max() < 35 and side.mean() < 20  # near horizontal when the arms are sideways
     assert up.min() > 35 and up.mean() > 55  # steep when the arms are up

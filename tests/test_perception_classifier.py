@@ -48,8 +48,10 @@ def test_best_pipeline_cross_validates_above_the_targets_and_beats_the_baseline(
     best_five = cross_validate("best", x_best, labels, files, five)
     x_base = EigenClassifier("baseline").features([im for im, k in zip(images, five) if k])
     base_five = cross_validate("baseline", x_base, labels[five], [f for f, k in zip(files, five) if k])
-    print(f"5-fold CV: best all {best_all.mean():.3f} (min fold {best_all.min():.3f}); best 0,1,2,4,5 "
-          f"{best_five.mean():.3f} (min {best_five.min():.3f}); baseline 0,1,2,4,5 {base_five.mean():.3f}")
+    print(
+        f"5-fold CV: best all {best_all.mean():.3f} (min fold {best_all.min():.3f}); best 0,1,2,4,5 "
+        f"{best_five.mean():.3f} (min {best_five.min():.3f}); baseline 0,1,2,4,5 {base_five.mean():.3f}"
+    )
     assert best_all.mean() >= 0.97 and best_all.min() >= 0.96
     assert best_five.mean() >= 0.98 and best_five.min() >= 0.97
     assert best_five.mean() > base_five.mean() + 0.1
@@ -99,7 +101,9 @@ def test_without_the_shipped_model_one_is_trained_from_the_shared_set(shared_han
 
 
 def test_documented_split_is_fixed():
-    assert [is_test_file(f"IMG_{k}.JPG") for k in (1118, 1128, 1138, 4042)] == [is_test_file(f"IMG_{k}.JPG") for k in (1118, 1128, 1138, 4042)]
+    assert [is_test_file(f"IMG_{k}.JPG") for k in (1118, 1128, 1138, 4042)] == [
+        is_test_file(f"IMG_{k}.JPG") for k in (1118, 1128, 1138, 4042)
+    ]
     assert is_test_file("IMG_1118.JPG") == (__import__("hashlib").md5(b"IMG_1118.JPG").digest()[0] < 64)
 
 

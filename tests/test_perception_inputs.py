@@ -82,7 +82,7 @@ def test_20000_by_20000_jpeg_is_refused_from_its_header(tmp_path):
     ok, buf = cv2.imencode(".jpg", noise(16, 16))
     data = bytearray(buf.tobytes())
     i = data.find(b"\xff\xc0")
-    data[i + 5:i + 9] = (20000).to_bytes(2, "big") * 2  # height, width in the start-of-frame header
+    data[i + 5 : i + 9] = (20000).to_bytes(2, "big") * 2  # height, width in the start-of-frame header
     p = tmp_path / "huge.jpg"
     p.write_bytes(bytes(data))
     with pytest.raises(InputError, match="too large"):
@@ -122,17 +122,23 @@ def test_unknown_class_folder_layout(tmp_path, capsys):
         load_folder(flat)
     good = tmp_path / "good"
     make_class_tree(good)
-    assert_one_line_error(capsys, ["eval-classifier", "--train", str(flat), "--test", str(good)], flat,
-                          "unknown class folder layout")
+    assert_one_line_error(
+        capsys, ["eval-classifier", "--train", str(flat), "--test", str(good)], flat, "unknown class folder layout"
+    )
     one = tmp_path / "one"
     make_class_tree(one, classes=("a",))
-    assert_one_line_error(capsys, ["eval-classifier", "--train", str(good), "--test", str(one)], one,
-                          "unknown class folder layout")
+    assert_one_line_error(
+        capsys, ["eval-classifier", "--train", str(good), "--test", str(one)], one, "unknown class folder layout"
+    )
     empty_class = tmp_path / "emptyclass"
     make_class_tree(empty_class)
     (empty_class / "c").mkdir()
-    assert_one_line_error(capsys, ["eval-classifier", "--train", str(empty_class), "--test", str(good)],
-                          empty_class / "c", "holds no images")
+    assert_one_line_error(
+        capsys,
+        ["eval-classifier", "--train", str(empty_class), "--test", str(good)],
+        empty_class / "c",
+        "holds no images",
+    )
 
 
 def test_eval_classifier_with_folders_runs_on_a_tiny_set(tmp_path, capsys):

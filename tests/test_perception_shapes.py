@@ -19,8 +19,17 @@ def drawn_ellipse(l_major, l_minor, orientation, x_c, y_c, size=200):
     return im.astype(bool)
 
 
-@pytest.mark.parametrize("params", [(60, 20, 30, 80, 70), (40, 12, 100, 50, 60), (90, 50, 0, 100, 100),
-                                    (30, 8, 165, 40, 40), (120, 30, 90, 100, 100), (70, 40, 135, 120, 90)])
+@pytest.mark.parametrize(
+    "params",
+    [
+        (60, 20, 30, 80, 70),
+        (40, 12, 100, 50, 60),
+        (90, 50, 0, 100, 100),
+        (30, 8, 165, 40, 40),
+        (120, 30, 90, 100, 100),
+        (70, 40, 135, 120, 90),
+    ],
+)
 def test_drawn_ellipse_is_recovered_within_2px_and_2deg(params):
     l_major, l_minor, orientation, x_c, y_c = params
     e = fit_ellipse(drawn_ellipse(*params))

@@ -22,7 +22,6 @@ ROWS = REPO / "tests" / "labels" / "weizmann_rows.json"
 TORSO_STRIDE = 6  # every 6th frame of every clip for the torso figure (scripts/body_figures.py: all frames)
 
 
-
 @pytest.fixture(scope="module")
 def clips(weizmann):
     """{clip: (labels, {frame: PersonRegions})} for the labelled frames and every TORSO_STRIDE-th frame."""
@@ -77,13 +76,13 @@ def test_torso_of_a_standing_person_holds_the_legs(clips, weizmann):
 def _pan(frame: np.ndarray, frames: int = 40, step: int = 2) -> list[np.ndarray]:
     """A camera panning over a real scene: a 64-px window sliding over the frame and its mirror image."""
     wide = np.hstack([frame, frame[:, ::-1], frame])
-    return [wide[:, step * k:step * k + frame.shape[1]].copy() for k in range(frames)]
+    return [wide[:, step * k : step * k + frame.shape[1]].copy() for k in range(frames)]
 
 
 def _ball_on_the_wall(frame: np.ndarray, frames: int = 40) -> list[np.ndarray]:
     """An empty scene: the real wall beside the person (columns 0-19, mirrored to 64) and a small ball rolling."""
     wall = frame[:, :20]
-    scene = np.hstack([wall, wall[:, ::-1], wall, wall[:, ::-1]])[:, :frame.shape[1]]
+    scene = np.hstack([wall, wall[:, ::-1], wall, wall[:, ::-1]])[:, : frame.shape[1]]
     out = []
     for k in range(frames):
         f = scene.copy()
@@ -105,8 +104,13 @@ def test_perceive_a_clip_without_a_person_is_one_line_exit_1(tmp_path, weizmann)
     frame = load_frames(weizmann / "wave2" / "person0.png")[0]
     strip = tmp_path / "pan.png"
     cv2.imwrite(str(strip), np.hstack(_pan(frame)))
-    proc = subprocess.run([sys.executable, "-m", "fluidswarm", "perceive", str(strip), "--out", str(tmp_path / "p.png")],
-                          capture_output=True, text=True, timeout=60, cwd=REPO)
+    proc = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "perceive", str(strip), "--out", str(tmp_path / "p.png")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
     assert proc.returncode == 1
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "pan.png" in lines[0] and "no person found" in lines[0], proc.stderr

@@ -39,7 +39,7 @@ def test_kernel_first_moment_zero_and_gradient_antisymmetric():
 
 def test_tait_pressure():
     assert tait_pressure(1.0, 20.0, 1.0) == 0.0
-    assert tait_pressure(2.0, 2.0, 1.0, 7.0) == pytest.approx(2.0 * (2 ** 7 - 1))
+    assert tait_pressure(2.0, 2.0, 1.0, 7.0) == pytest.approx(2.0 * (2**7 - 1))
 
 
 @pytest.mark.parametrize("d,expected", [(0.5, 0.0), (1.0, 0.0), (2.0, 3.0 * 1.0), (3.0, 3.0 * 2.0), (10.0, 3.0 * 2.0)])
@@ -76,6 +76,7 @@ def test_viscosity_drags_neighbours_along_the_push():
     larger mu. Measured on the ring the claim is about: the particles 1.5-3 m from the pushed one's *current*
     position (it moves ~2 m), as a time mean over the run. The nearest ring (<= 1.5 m) is slowed by mu
     instead: the stress form's two-hop stencil is negative at one spacing (docs/thesis-reproduction.md)."""
+
     def ring_means(mu, steps=300):
         params = SPHParams(mu=mu, domain=(-100, 100, -100, 100), border="reflect")
         pos = lattice(99, 11)  # x 0..10, y 0..8: the thesis' block, pushed particle at (5, 4)
@@ -107,8 +108,18 @@ def test_per_particle_and_vectorised_drivers_agree_at_200_particles():
     assert np.abs(a[:, [X, Y]] - b[:, [X, Y]]).max() <= 1e-9
 
 
-@pytest.mark.parametrize("field,value", [("h", 0.0), ("dt", -0.1), ("mass", -1.0), ("rho0", float("nan")),
-                                         ("mu", -1.0), ("border", "wrap"), ("domain", (1, 0, 0, 1))])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("h", 0.0),
+        ("dt", -0.1),
+        ("mass", -1.0),
+        ("rho0", float("nan")),
+        ("mu", -1.0),
+        ("border", "wrap"),
+        ("domain", (1, 0, 0, 1)),
+    ],
+)
 def test_invalid_parameters_name_the_field(field, value):
     with pytest.raises(ValueError, match=f"SPHParams.{field}"):
         SPHParams(**{field: value})

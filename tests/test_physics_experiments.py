@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from agent.protocol.errors import UserError
-from agent.sph.particle import P, SXX, Y
+from agent.sph.particle import SXX, P, Y
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import branch_gap, branching, drag
 from fluidswarm.scenario import load_scenario
@@ -17,7 +17,6 @@ STEPS = 800
 
 def final_of(setup):
     return VectorisedDriver(setup.ids, setup.states, setup.controls, setup.params).run(STEPS)
-
 
 
 def test_stiffer_middle_splits_the_flow_into_two_branches():
@@ -83,10 +82,18 @@ def test_scenario_sph_beta_of_an_imitation_is_refused_by_name(tmp_path):
 @pytest.mark.swarm
 def test_simulate_command_writes_png(tmp_path):
     out = tmp_path / "sim.png"
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "simulate", "--out", str(out), "--steps", "200"],
-                       capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "simulate", "--out", str(out), "--steps", "200"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    bad = subprocess.run([sys.executable, "-m", "fluidswarm", "simulate", "--out", str(tmp_path / "x.txt")],
-                         capture_output=True, text=True, timeout=60)
+    bad = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "simulate", "--out", str(tmp_path / "x.txt")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert bad.returncode == 1 and "Traceback" not in bad.stderr and len(bad.stderr.strip().splitlines()) == 1

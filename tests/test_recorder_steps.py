@@ -158,10 +158,29 @@ def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
 def report(agent: int, status: str) -> bytes:
     import json
 
-    return json.dumps({"v": 1, "id": agent, "status": status, "steps": 5, "state": [0.0] * 10, "msgs_received": 0,
-                       "neighbours": 0, "rejected": {}, "timeouts": 0, "deaths_seen": 0, "stale": 0, "dropped_out": 0,
-                       "lost": 0, "t_start": None, "t_end": None, "session_opened_at": 1.79e9, "rss_mb": 1.0,
-                       "cpu_seconds": 0.1, "cpu_seconds_at_start": None}).encode()
+    return json.dumps(
+        {
+            "v": 1,
+            "id": agent,
+            "status": status,
+            "steps": 5,
+            "state": [0.0] * 10,
+            "msgs_received": 0,
+            "neighbours": 0,
+            "rejected": {},
+            "timeouts": 0,
+            "deaths_seen": 0,
+            "stale": 0,
+            "dropped_out": 0,
+            "lost": 0,
+            "t_start": None,
+            "t_end": None,
+            "session_opened_at": 1.79e9,
+            "rss_mb": 1.0,
+            "cpu_seconds": 0.1,
+            "cpu_seconds_at_start": None,
+        }
+    ).encode()
 
 
 def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_they_are(recorder):
@@ -197,7 +216,6 @@ def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorde
     rec.finish(quiet=0.0, limit=0.0)
     rec.writer.close()
     run = load_run(path, images=False)
-    assert [(e.kind, e.step) for e in run.events if e.agent == 2 and e.step > 0] == \
-        [("died", 4), ("started", 7)]
+    assert [(e.kind, e.step) for e in run.events if e.agent == 2 and e.step > 0] == [("died", 4), ("started", 7)]
     assert check(path) == (True, 10, 0)
     assert recorded(path)[2] == {0, 1, 2, 3, 7, 8, 9}

@@ -8,8 +8,8 @@ import subprocess
 import sys
 import threading
 
-from mcap.reader import make_reader
 import pytest
+from mcap.reader import make_reader
 
 from agent.launcher import Launcher, run_swarm
 from agent.router_host import free_port
@@ -44,6 +44,7 @@ def test_recorder_complete_after_20_percent_killed(tmp_path):
                 l.wait_step(30, 60)
                 for v in victims:
                     os.kill(l.swarm.procs[v].pid, signal.SIGKILL)
+
             threading.Thread(target=go, daemon=True).start()
 
         run_swarm(setup, 90, launcher=la, on_started=kill)
@@ -63,9 +64,25 @@ def test_recorder_complete_after_20_percent_killed(tmp_path):
 def test_recorder_file_finished_after_sigint_to_launcher(tmp_path):
     path = tmp_path / "interrupted.mcap"
     port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "fluidswarm", "launch", "-n", "9", "--steps", "100000",
-                             "--record", str(path), "--live", f"127.0.0.1:{port}"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "fluidswarm",
+            "launch",
+            "-n",
+            "9",
+            "--steps",
+            "100000",
+            "--record",
+            str(path),
+            "--live",
+            f"127.0.0.1:{port}",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().startswith("run=")
         seen = wait_for_live_step(port, 20)  # stepping, and the recorder has the states up to there

@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from coordinator.control.geometry import ImageToDomain
 from coordinator.control.fidelity import Fidelity, fidelity, format_fidelity, nn_cv
-from perception.skeleton import thin
+from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.synthetic import silhouette, spread_over
+from perception.skeleton import thin
 
 MASK = silhouette((100, 100))
 TF = ImageToDomain.fit(MASK.shape, (0.0, 2.0, 0.0, 2.0))

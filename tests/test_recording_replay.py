@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from fluidswarm.cli import main
 from agent.protocol.errors import UserError
+from fluidswarm.cli import main
 from fluidswarm.recording.analysis import series
 from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.render import GIF_SIZE, PLOT_SIZE, SNAPSHOT_SIZE, FormationRenderer

@@ -48,15 +48,25 @@ def test_file_is_foxglove_ready_complete_and_holds_the_scenario(tmp_path):
         w.write_event(0.0, "info", "coordinator", "run started")
         for step in range(20):
             n = 12
-            w.write_states(step, step * 0.1, np.arange(n), np.random.rand(n, 2), np.zeros((n, 2)),
-                           np.ones(n), np.zeros(n), np.arange(n) % 2)
+            w.write_states(
+                step,
+                step * 0.1,
+                np.arange(n),
+                np.random.rand(n, 2),
+                np.zeros((n, 2)),
+                np.ones(n),
+                np.zeros(n),
+                np.arange(n) % 2,
+            )
 
     steps, schemas = _states_by_step(path)
     assert sorted(steps) == list(range(20))
     assert all(ids == set(range(12)) for ids in steps.values())
     assert {name for name, _, _ in schemas.values()} >= FOXGLOVE
     assert {(enc, msg_enc) for _, enc, msg_enc in schemas.values()} == {("jsonschema", "json")}
-    assert set(schemas) == {f"fluidswarm/demo/{leaf}" for leaf in ("state", "scene", "command", "perception/image", "event")}
+    assert set(schemas) == {
+        f"fluidswarm/demo/{leaf}" for leaf in ("state", "scene", "command", "perception/image", "event")
+    }
 
     with open(path, "rb") as fh:
         reader = make_reader(fh)
@@ -128,8 +138,16 @@ def test_lost_states_and_lost_steps_are_counted(tmp_path):
         w.write_event(0.0, "info", "agent/4", "died", kind="died", agent=4)  # at t=0.2 below
         for step in (0, 1, 2, 4):  # step 3 lost entirely
             ids = np.arange(n) if step != 1 else np.arange(n - 1)  # agent 4 missing at step 1
-            w.write_states(step, step * 0.1, ids, np.zeros((len(ids), 2)), np.zeros((len(ids), 2)),
-                           np.ones(len(ids)), np.zeros(len(ids)), np.zeros(len(ids), int))
+            w.write_states(
+                step,
+                step * 0.1,
+                ids,
+                np.zeros((len(ids), 2)),
+                np.zeros((len(ids), 2)),
+                np.ones(len(ids)),
+                np.zeros(len(ids)),
+                np.zeros(len(ids), int),
+            )
     # agent 4's death at t=0 means it is not expected anywhere; recorded extra states are not "missing".
     # missing: agent 5 at steps 0..4 (5) + step 3 for agents 0..3 (4) = 9
     assert check(path) == (False, 4, 9)
@@ -143,8 +161,16 @@ def test_time_based_death_event(tmp_path):
             if step == 3:
                 w.write_event(t, "warning", "agent/1", "died", kind="died", agent=1)
             ids = np.array([0, 1]) if step < 2 else np.array([0])  # agent 1's last state is step 1: lost step 2
-            w.write_states(step, t, ids, np.zeros((len(ids), 2)), np.zeros((len(ids), 2)), np.ones(len(ids)),
-                           np.zeros(len(ids)), np.zeros(len(ids), int))
+            w.write_states(
+                step,
+                t,
+                ids,
+                np.zeros((len(ids), 2)),
+                np.zeros((len(ids), 2)),
+                np.ones(len(ids)),
+                np.zeros(len(ids)),
+                np.zeros(len(ids), int),
+            )
     assert check(path) == (False, 6, 1)
 
 
@@ -168,8 +194,16 @@ def test_interrupt_in_the_middle_of_writing_leaves_a_finished_file(tmp_path):
                 signal.setitimer(signal.ITIMER_REAL, 0.02 + 0.013 * attempt)
                 n = 200
                 for step in range(100_000):
-                    w.write_states(step, step * 0.01, np.arange(n), np.random.rand(n, 2), np.zeros((n, 2)),
-                                   np.ones(n), np.zeros(n), np.arange(n) % 3)
+                    w.write_states(
+                        step,
+                        step * 0.01,
+                        np.arange(n),
+                        np.random.rand(n, 2),
+                        np.zeros((n, 2)),
+                        np.ones(n),
+                        np.zeros(n),
+                        np.arange(n) % 3,
+                    )
                     written = step + 1
         except KeyboardInterrupt:
             pass
@@ -209,17 +243,24 @@ _RECORDER = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("sig,handler,rc", [
-    (signal.SIGTERM, "close", 0),
-    (signal.SIGINT, "close", 0),
-    (signal.SIGTERM, "exit", 0),  # no close() at all
-    (signal.SIGINT, "default", -signal.SIGINT),  # uncaught KeyboardInterrupt, no close()
-])
+@pytest.mark.parametrize(
+    "sig,handler,rc",
+    [
+        (signal.SIGTERM, "close", 0),
+        (signal.SIGINT, "close", 0),
+        (signal.SIGTERM, "exit", 0),  # no close() at all
+        (signal.SIGINT, "default", -signal.SIGINT),  # uncaught KeyboardInterrupt, no close()
+    ],
+)
 @pytest.mark.swarm
 def test_recorder_process_stopped_by_signal_leaves_a_finished_file(tmp_path, sig, handler, rc):
     path = tmp_path / "sig.mcap"
-    proc = subprocess.Popen([sys.executable, "-c", _RECORDER, str(path), handler], stdout=subprocess.PIPE,
-                            stderr=subprocess.DEVNULL, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _RECORDER, str(path), handler],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().strip() == "ready"
         proc.send_signal(sig)
@@ -233,22 +274,33 @@ def test_recorder_process_stopped_by_signal_leaves_a_finished_file(tmp_path, sig
     assert load_run(path).metadata["scenario"] == "sigterm"
 
 
-@pytest.mark.parametrize("bad", [
-    dict(positions=np.zeros((3, 3))),
-    dict(ids=np.array([0, 0, 1])),
-    dict(ids=np.array([-1, 0, 1])),
-    dict(alive=np.array([1, 0, 1])),
-    dict(class_ids=np.array([0.5, 1, 2])),
-    dict(t=-1.0),
-    dict(t=float("nan")),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(positions=np.zeros((3, 3))),
+        dict(ids=np.array([0, 0, 1])),
+        dict(ids=np.array([-1, 0, 1])),
+        dict(alive=np.array([1, 0, 1])),
+        dict(class_ids=np.array([0.5, 1, 2])),
+        dict(t=-1.0),
+        dict(t=float("nan")),
+    ],
+)
 def test_write_states_rejects_bad_input(tmp_path, bad):
-    args = dict(step=0, t=0.0, ids=np.arange(3), positions=np.zeros((3, 2)), velocities=np.zeros((3, 2)),
-                density=np.ones(3), pressure=np.zeros(3), class_ids=np.zeros(3, int), alive=None)
+    args = dict(
+        step=0,
+        t=0.0,
+        ids=np.arange(3),
+        positions=np.zeros((3, 2)),
+        velocities=np.zeros((3, 2)),
+        density=np.ones(3),
+        pressure=np.zeros(3),
+        class_ids=np.zeros(3, int),
+        alive=None,
+    )
     args.update(bad)
-    with RunWriter(tmp_path / "bad.mcap", {}) as w:
-        with pytest.raises(ValueError):
-            w.write_states(**args)
+    with RunWriter(tmp_path / "bad.mcap", {}) as w, pytest.raises(ValueError):
+        w.write_states(**args)
 
 
 def test_rejects_bad_run_names_and_commands(tmp_path):

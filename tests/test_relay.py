@@ -6,7 +6,6 @@ per-process rights."""
 import contextlib
 import os
 import tempfile
-
 import time
 
 import numpy as np
@@ -17,9 +16,9 @@ from agent.protocol import keys
 from agent.protocol.session import client_config, router_config, router_config_dict
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
 from agent.relay import StateRelay
-from agent.sph.particle import NFIELDS
 from agent.router_host import free_port
 from agent.router_process import RouterFailed, RouterProcess
+from agent.sph.particle import NFIELDS
 from tests.swarm_helpers import wait_until
 
 RUN = "r"
@@ -62,8 +61,9 @@ def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest
         with pytest.raises(ValueError, match="smoothing length"):
             relay.add(4, cell=0.25)  # agents hear each other on cells of one size
         client = zenoh.open(client_config([endpoint]))
-        sub = client.declare_subscriber(f"{keys.PREFIX}/{RUN}/state/*/*",
-                                        lambda s: heard.append((str(s.key_expr), s.payload.to_bytes())))
+        sub = client.declare_subscriber(
+            f"{keys.PREFIX}/{RUN}/state/*/*", lambda s: heard.append((str(s.key_expr), s.payload.to_bytes()))
+        )
         try:
             time.sleep(0.3)  # the subscription reaches the router before anything is put (pub/sub is not durable)
             good = record(3, 1.2, -0.1)
@@ -99,7 +99,7 @@ def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_c
 
 
 def test_a_router_that_never_says_ready_is_killed_and_named(tmp_path, monkeypatch):
-    import agent.router_process as router_process
+    from agent import router_process
 
     hung = tmp_path / "hung-router"  # stands in for a router stuck opening: it never reads its stdin
     hung.write_text("#!/bin/sh\nexec sleep 30\n")
@@ -108,7 +108,9 @@ def test_a_router_that_never_says_ready_is_killed_and_named(tmp_path, monkeypatc
     monkeypatch.setattr(router_process, "START_TIMEOUT", 0.5)
     spawned = []
     real_popen = router_process.subprocess.Popen
-    monkeypatch.setattr(router_process.subprocess, "Popen", lambda *a, **k: spawned.append(real_popen(*a, **k)) or spawned[-1])
+    monkeypatch.setattr(
+        router_process.subprocess, "Popen", lambda *a, **k: spawned.append(real_popen(*a, **k)) or spawned[-1]
+    )
     t = time.monotonic()
     with pytest.raises(RouterFailed, match="did not say ready within 0.5 s"):
         RouterProcess(RUN, router_config_dict([f"tcp/127.0.0.1:{free_port()}"]))

@@ -14,8 +14,12 @@ from fluidswarm.reproduce.allpairs import AllPairsDriver
 
 @pytest.mark.swarm
 def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     report = (tmp_path / "thesis-reproduction.md").read_text()
     rows = [line for line in report.splitlines() if line.startswith("| ") and not line.startswith("| where")]
@@ -38,8 +42,12 @@ def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):
 def test_bad_out_is_one_line_error(tmp_path):
     f = tmp_path / "file.txt"
     f.write_text("x")
-    r = subprocess.run([sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(f)],
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(f)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == 1 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 

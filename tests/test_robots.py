@@ -13,10 +13,20 @@ import pytest
 from agent.protocol.errors import UserError
 from agent.protocol.spec import AgentSpec
 from agent.protocol.wire import REJECT_VERSION, STATE_SIZE, decode_state, encode_state, peek_id_position
-from agent.sph.particle import HEADING, NFIELDS, SPEED, VX, VY, X, Y, Control, initial_state, step_particle
+from agent.sph.particle import HEADING, NFIELDS, SPEED, VX, VY, Control, X, Y, initial_state, step_particle
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
-from agent.sph.robot import (CONTACT_MARGIN, POINT, RobotModel, body_centres, check_layout, contact_terms,
-                             holonomic_velocity, offset_tracking, unicycle_step, wrap_angle)
+from agent.sph.robot import (
+    CONTACT_MARGIN,
+    POINT,
+    RobotModel,
+    body_centres,
+    check_layout,
+    contact_terms,
+    holonomic_velocity,
+    offset_tracking,
+    unicycle_step,
+    wrap_angle,
+)
 from agent.sph.setups import spread_block
 from fluidswarm.recording.contacts import ContactCounter
 from fluidswarm.scenario import load_scenario
@@ -25,15 +35,18 @@ UNICYCLE = RobotModel(kind="unicycle")
 HOLONOMIC = RobotModel(kind="holonomic")
 
 
-@pytest.mark.parametrize("fields, key", [
-    ({"kind": "tank"}, "robot.kind"),
-    ({"kind": "unicycle", "radius": -0.1}, "robot.radius"),
-    ({"kind": "unicycle", "radius": 0.0}, "robot.radius"),
-    ({"kind": "holonomic", "v_max": math.inf}, "robot.v_max"),
-    ({"kind": "holonomic", "a_max": math.nan}, "robot.a_max"),
-    ({"kind": "unicycle", "omega_max": 0.0}, "robot.omega_max"),
-    ({"kind": "unicycle", "offset": -1.0}, "robot.offset"),
-])
+@pytest.mark.parametrize(
+    "fields, key",
+    [
+        ({"kind": "tank"}, "robot.kind"),
+        ({"kind": "unicycle", "radius": -0.1}, "robot.radius"),
+        ({"kind": "unicycle", "radius": 0.0}, "robot.radius"),
+        ({"kind": "holonomic", "v_max": math.inf}, "robot.v_max"),
+        ({"kind": "holonomic", "a_max": math.nan}, "robot.a_max"),
+        ({"kind": "unicycle", "omega_max": 0.0}, "robot.omega_max"),
+        ({"kind": "unicycle", "offset": -1.0}, "robot.offset"),
+    ],
+)
 def test_bad_robot_models_name_the_key(fields, key):
     with pytest.raises(ValueError, match=f"^{key}: "):
         RobotModel(**fields)
@@ -153,22 +166,35 @@ def test_collisions_are_counted_once_per_pair_and_episode():
 
 def test_the_spec_carries_the_robot_and_checks_it():
     setup = spread_block(4)
-    base = {"run": "r1", "id": 0, "connect": ["tcp/127.0.0.1:7447"], "steps": 1, "initial": [0, 0, 0, 0],
-            "params": {k: (list(v) if k == "domain" else v) for k, v in setup.params.as_dict().items()}}
+    base = {
+        "run": "r1",
+        "id": 0,
+        "connect": ["tcp/127.0.0.1:7447"],
+        "steps": 1,
+        "initial": [0, 0, 0, 0],
+        "params": {k: (list(v) if k == "domain" else v) for k, v in setup.params.as_dict().items()},
+    }
     spec = AgentSpec.from_json(json.dumps({**base, "robot": UNICYCLE.as_dict()}))
     assert spec.robot_model() == UNICYCLE
-    for bad, key in (({"kind": "tank"}, "robot.kind"), ({"kind": "unicycle", "radius": -1}, "robot.radius"),
-                     ({"kind": "unicycle", "wheels": 3}, "wheels"), ({"kind": "unicycle", "v_max": 9.0}, "robot.v_max")):
+    for bad, key in (
+        ({"kind": "tank"}, "robot.kind"),
+        ({"kind": "unicycle", "radius": -1}, "robot.radius"),
+        ({"kind": "unicycle", "wheels": 3}, "wheels"),
+        ({"kind": "unicycle", "v_max": 9.0}, "robot.v_max"),
+    ):
         with pytest.raises(ValueError, match=key):
             AgentSpec.from_json(json.dumps({**base, "robot": bad}))
 
 
-@pytest.mark.parametrize("table, message", [
-    ('kind = "tank"', "key 'robot.kind': must be one of"),
-    ('kind = "unicycle"\nradius = -0.2', "key 'robot.radius': must be >= 0"),
-    ('kind = "unicycle"\nwheels = 2', "key 'robot.wheels': unknown key"),
-    ('kind = "holonomic"\nv_max = "fast"', "key 'robot.v_max': must be a finite number"),
-])
+@pytest.mark.parametrize(
+    "table, message",
+    [
+        ('kind = "tank"', "key 'robot.kind': must be one of"),
+        ('kind = "unicycle"\nradius = -0.2', "key 'robot.radius': must be >= 0"),
+        ('kind = "unicycle"\nwheels = 2', "key 'robot.wheels': unknown key"),
+        ('kind = "holonomic"\nv_max = "fast"', "key 'robot.v_max': must be a finite number"),
+    ],
+)
 def test_a_scenarios_robot_table_is_checked_on_load(tmp_path, table, message):
     path = tmp_path / "s.toml"
     path.write_text(f'experiment = "drag"\n[robot]\n{table}\n')

@@ -27,7 +27,9 @@ FS = [sys.executable, "-m", "fluidswarm"]
 
 
 def run_cli(args, timeout=900):
-    return subprocess.run(FS + args, cwd=REPO, capture_output=True, text=True, timeout=timeout, stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        FS + args, cwd=REPO, capture_output=True, text=True, timeout=timeout, stdin=subprocess.DEVNULL
+    )
 
 
 def run_record(args, timeout=900):
@@ -48,9 +50,21 @@ def test_every_scenario_file_loads_and_ships_its_input():
             assert src is not None and src.exists(), f"{path.name}: input {sc.input} missing"
             assert REPO in src.parents, f"{path.name}: input must ship inside the repository, not {src}"
     # the thesis' experiments, one scenario each (issue 7)
-    for needed in ("hand_pointing", "hand_pointing_angle", "hand_scissor_v", "hand_pinching", "branching_stiffness",
-                   "hand_cylindrical_beta50", "viscosity_drag", "body_arms_sideways", "body_left_arm_down",
-                   "body_arms_close", "sequence_scissor_hook", "sequence_cylindrical_pinching", "hand_scissor_300"):
+    for needed in (
+        "hand_pointing",
+        "hand_pointing_angle",
+        "hand_scissor_v",
+        "hand_pinching",
+        "branching_stiffness",
+        "hand_cylindrical_beta50",
+        "viscosity_drag",
+        "body_arms_sideways",
+        "body_left_arm_down",
+        "body_arms_close",
+        "sequence_scissor_hook",
+        "sequence_cylindrical_pinching",
+        "hand_scissor_300",
+    ):
         assert needed in names, f"no scenario {needed}"
     assert any(load_scenario(p).sync == "async" for p in SCENARIOS)
 
@@ -71,16 +85,19 @@ def cli(capsys):
     signal.signal(signal.SIGTERM, sigterm)
 
 
-@pytest.mark.parametrize("body,problem", [
-    ('name = "x"\ncolour = 3\n', "key 'colour': unknown key"),
-    ('name = "x"\nagents = "many"\n', "key 'agents': expected int"),
-    ('name = "x"\nexperiment = "branching"\nsync = "sometimes"\n', "key 'sync': must be one of"),
-    ('name = "x"\nexperiment = "branching"\n[[failures]]\nkind = "kill"\nat_step = -4\n', "failures[0]"),
-    ('name = "x"\nexperiment = "branching"\n[pass]\nmin_fidelity_ratio = "high"\n', "pass.min_fidelity_ratio"),
-    ('name = "x"\ninput = "a.jpg"\nframe = 2\nframe_steps = 10\n', "key 'frame_steps'"),
-    ('name = "x"\nexperiment = "branching"\nasync_rate = 0\n', "key 'async_rate': must be > 0"),
-    ('name = [1\n', "not valid TOML"),
-])
+@pytest.mark.parametrize(
+    "body,problem",
+    [
+        ('name = "x"\ncolour = 3\n', "key 'colour': unknown key"),
+        ('name = "x"\nagents = "many"\n', "key 'agents': expected int"),
+        ('name = "x"\nexperiment = "branching"\nsync = "sometimes"\n', "key 'sync': must be one of"),
+        ('name = "x"\nexperiment = "branching"\n[[failures]]\nkind = "kill"\nat_step = -4\n', "failures[0]"),
+        ('name = "x"\nexperiment = "branching"\n[pass]\nmin_fidelity_ratio = "high"\n', "pass.min_fidelity_ratio"),
+        ('name = "x"\ninput = "a.jpg"\nframe = 2\nframe_steps = 10\n', "key 'frame_steps'"),
+        ('name = "x"\nexperiment = "branching"\nasync_rate = 0\n', "key 'async_rate': must be > 0"),
+        ("name = [1\n", "not valid TOML"),
+    ],
+)
 def test_bad_scenario_file_is_one_line_naming_file_and_key(tmp_path, cli, body, problem):
     f = tmp_path / "bad.toml"
     f.write_text(body)
@@ -90,12 +107,15 @@ def test_bad_scenario_file_is_one_line_naming_file_and_key(tmp_path, cli, body, 
     assert not (tmp_path / "o").exists()
 
 
-@pytest.mark.parametrize("opts,problem", [
-    (["--kill", "two@100"], "--kill two@100"),
-    (["--freeze", "1@10"], "--freeze 1@10"),
-    (["--drop", "3:1.5"], "--drop 3:1.5"),
-    (["--agents", "0"], "--agents"),
-])
+@pytest.mark.parametrize(
+    "opts,problem",
+    [
+        (["--kill", "two@100"], "--kill two@100"),
+        (["--freeze", "1@10"], "--freeze 1@10"),
+        (["--drop", "3:1.5"], "--drop 3:1.5"),
+        (["--agents", "0"], "--agents"),
+    ],
+)
 def test_bad_run_option_is_one_line(tmp_path, cli, opts, problem):
     code, lines = cli(["run", str(REPO / "scenarios" / "viscosity_drag.toml"), "--out", str(tmp_path / "o"), *opts])
     assert code == 1 and len(lines) == 1 and problem in lines[0], lines
@@ -119,12 +139,16 @@ EXTRA_CHECKS = {
     "hand_failures_kill20_async": lambda r: r["figures"]["fidelity_ratio"] >= 0.8 and r["figures"]["mcap_complete"],
     # coordinator killed at step 300 -> the swarm still finishes the formation; frozen agents -> the swarm
     # never stalls longer than the neighbour timeout (+0.5 s of scheduling on two cores); 30% drop -> completes.
-    "hand_failures_freeze_drop": lambda r: (r["fidelity"]["iou"] >= 0.4 and
-                                            r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
-                                            and r["finished"] >= 30 - 2),
-    "hand_failures_freeze_drop_async": lambda r: (r["fidelity"]["iou"] >= 0.4 and
-                                                  r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
-                                                  and r["finished"] >= 30),
+    "hand_failures_freeze_drop": lambda r: (
+        r["fidelity"]["iou"] >= 0.4
+        and r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
+        and r["finished"] >= 30 - 2
+    ),
+    "hand_failures_freeze_drop_async": lambda r: (
+        r["fidelity"]["iou"] >= 0.4
+        and r["longest_stall_seconds"] <= r["neighbour_timeout_seconds"] + 0.5
+        and r["finished"] >= 30
+    ),
     "branching_stiffness": lambda r: r["figures"]["branch_gap"] >= 7.0,
     "viscosity_drag": lambda r: r["figures"]["mean_vx"] > 0.0,
 }
@@ -162,9 +186,13 @@ class SharedRuns:
 
 @pytest.fixture(scope="module")
 def shared_runs(request, tmp_path_factory):
-    paths = [item.callspec.params["path"] for item in request.session.items
-             if item.module is request.module and item.originalname == "test_scenario_runs_end_to_end_and_passes"
-             and not timed(load_scenario(item.callspec.params["path"]))]  # only the selected tests' runs
+    paths = [
+        item.callspec.params["path"]
+        for item in request.session.items
+        if item.module is request.module
+        and item.originalname == "test_scenario_runs_end_to_end_and_passes"
+        and not timed(load_scenario(item.callspec.params["path"]))
+    ]  # only the selected tests' runs
     runs = SharedRuns(paths, tmp_path_factory.mktemp("scenarios"))
     yield runs
     runs.close()
@@ -182,8 +210,9 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path, shared_runs):
     print(r.stdout)
     assert r.returncode == 0 and f["passed"], f"{path.name}: rc {r.returncode}\n{r.stdout}\n{r.stderr[-3000:]}"
     assert Path(f["mcap"]).stat().st_size > 0
-    assert f["sync"] == sc.sync and f["kind"] == ("experiment" if sc.experiment != "imitate" else
-                                                  "sequence" if sc.frame_steps else "imitation")
+    assert f["sync"] == sc.sync and f["kind"] == (
+        "experiment" if sc.experiment != "imitate" else "sequence" if sc.frame_steps else "imitation"
+    )
     assert len(f["failures"]) == len([x for x in sc.failures if x.kind != "drop"])
     pictures = f["pictures"]
     assert any(p.endswith(".gif") for p in pictures) and all(Path(p).exists() for p in pictures)
@@ -195,7 +224,9 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path, shared_runs):
         seqs = [(t, m["body"]["seq"], m["body"]["gesture"]) for t, m in run.commands]
         assert len({s for _t, s, _g in seqs}) == 2 and len({g for _t, _s, g in seqs}) == 2, seqs[:3] + seqs[-3:]
         switch = min(t for t, s, _g in seqs if s == 2)
-        assert switch >= (sc.frame_steps - 5) * dt, f"command 2 recorded at {switch:.2f} s, frame 2 is due at step {sc.frame_steps}"
+        assert switch >= (sc.frame_steps - 5) * dt, (
+            f"command 2 recorded at {switch:.2f} s, frame 2 is due at step {sc.frame_steps}"
+        )
     check = EXTRA_CHECKS.get(sc.name)
     if check is not None:
         assert check(f), f"{sc.name}: robustness figures not met:\n{r.stdout}"
@@ -206,8 +237,22 @@ def test_run_options_inject_failures_in_async_mode(tmp_path, shared_runs):
     """Failures given as `run` options on asynchronous agents: SIGKILL and late joiners; the MCAP stays
     complete (a late joiner is expected from its first state on). Async with failures: run alone."""
     shared_runs.alone()
-    r, f = run_record(["run", str(REPO / "scenarios" / "viscosity_drag.toml"), "--out", str(tmp_path / "o"),
-                       "--agents", "16", "--sync", "async", "--kill", "3@60", "--late-join", "2@90"])
+    r, f = run_record(
+        [
+            "run",
+            str(REPO / "scenarios" / "viscosity_drag.toml"),
+            "--out",
+            str(tmp_path / "o"),
+            "--agents",
+            "16",
+            "--sync",
+            "async",
+            "--kill",
+            "3@60",
+            "--late-join",
+            "2@90",
+        ]
+    )
     assert r.returncode == 0, r.stdout + r.stderr[-2000:]
     assert f["sync"] == "async" and len(f["failures"]) == 2
     assert "SIGKILL agents" in f["failures"][0] and "late joiners [16, 17]" in f["failures"][1]

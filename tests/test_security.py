@@ -17,9 +17,9 @@ from __future__ import annotations
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
-import struct
 import time
 from dataclasses import astuple
 
@@ -29,8 +29,7 @@ import zenoh
 
 from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
-from agent.protocol.access import (AGENT_CAPACITY, AuthFileError, RunKey, acl_config, read_users_file,
-                                   write_users_file)
+from agent.protocol.access import AGENT_CAPACITY, AuthFileError, RunKey, acl_config, read_users_file, write_users_file
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
@@ -43,7 +42,7 @@ MARK = 0x7777  # the particle class the rogues stamp on their forgeries (a valid
 
 # The issue's attack: subscribe to every state and republish, for one agent in seven, a well-formed copy with
 # x shifted by 0.3 m under the same key. Keeps trying to connect until SIGTERM, then prints what it did.
-OUTSIDER = r'''
+OUTSIDER = r"""
 import json, os, signal, struct, sys, threading, time, zenoh
 stop = threading.Event()
 signal.signal(signal.SIGTERM, lambda *a: stop.set())
@@ -78,7 +77,7 @@ if session is not None:
     stop.wait()
 print(json.dumps(did), flush=True)
 os._exit(0)  # without closing: the router may be gone already
-'''
+"""
 
 
 def _stop(rogue: subprocess.Popen | None) -> tuple[str, str]:
@@ -117,8 +116,13 @@ def _listening_ports(pid: int) -> list[int]:
 def _verify_with_outsider(access: str) -> tuple[float, dict]:
     """`fluidswarm verify` (16 agents) with the outsider attacking its router; (max_position_error, rogue's tally)."""
     env = dict(os.environ, FLUIDSWARM_ACCESS=access)
-    verify = subprocess.Popen(FS + ["verify", "--agents", "16", "--steps", "250", "--timeout", "15"], env=env,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    verify = subprocess.Popen(
+        FS + ["verify", "--agents", "16", "--steps", "250", "--timeout", "15"],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     rogue = None
     try:
         deadline = time.monotonic() + 30
@@ -128,8 +132,12 @@ def _verify_with_outsider(access: str) -> tuple[float, dict]:
             ports = [p for pid in [verify.pid, *children_of(verify.pid)] for p in _listening_ports(pid)]
             time.sleep(0.02)
         assert ports, "neither the verify process nor a child of it ever listened on a TCP port"
-        rogue = subprocess.Popen([sys.executable, "-c", OUTSIDER, f"tcp/127.0.0.1:{ports[0]}"],
-                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        rogue = subprocess.Popen(
+            [sys.executable, "-c", OUTSIDER, f"tcp/127.0.0.1:{ports[0]}"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         out, err = verify.communicate(timeout=120)
     finally:
         if verify.poll() is None:
@@ -160,7 +168,7 @@ def test_an_outsider_without_credentials_cannot_connect_and_verify_stays_exact()
 # It forges states under the real agents' ids (shifted copies of theirs, on their keys and on their cells'
 # keys without id), the same forgeries under its own key and on wildcard keys, and ctl/stop, ctl/end,
 # ctl/clock, ctl/gone and command messages on their keys and on wildcard keys.
-ROGUE_AGENT = r'''
+ROGUE_AGENT = r"""
 import json, os, signal, struct, sys, threading, time, zenoh
 from agent.protocol import keys
 from agent.protocol.session import client_config
@@ -207,13 +215,17 @@ while not stop.wait(0.1):
     pass
 print(json.dumps(did), flush=True)
 os._exit(0)
-'''
+"""
 
 
 # What the rogue sends on ctl: the launcher itself never sends these (no agent 99, no step 77777 in a 150-step
 # run, no ctl/end in run_swarm, ctl/stop only once the run is over).
-ROGUE_CTL = {("stop", b"stop"), ("end", struct.pack("<Q", 3)), ("clock", struct.pack("<Q", 77777)),
-             ("gone", struct.pack("<I", 99))}
+ROGUE_CTL = {
+    ("stop", b"stop"),
+    ("end", struct.pack("<Q", 3)),
+    ("clock", struct.pack("<Q", 77777)),
+    ("gone", struct.pack("<I", 99)),
+}
 
 
 @pytest.mark.swarm
@@ -239,8 +251,13 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
         observer = la.session.declare_subscriber(f"{keys.PREFIX}/{la.run}/**", observe)
         env = dict(os.environ, **la.access.env_for_agent(16))
         la.relay.add(16, setup.params.h)  # a compromised agent of this launcher's: its states are relayed
-        rogue = subprocess.Popen([sys.executable, "-c", ROGUE_AGENT, la.endpoint, la.run], env=env,
-                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        rogue = subprocess.Popen(
+            [sys.executable, "-c", ROGUE_AGENT, la.endpoint, la.run],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         try:
             assert rogue.stdout.readline().strip() == "ready", rogue.stderr.read()
             res = run_swarm(setup, steps, launcher=la)
@@ -255,8 +272,10 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     for r in res.finals.values():
         for k, v in r.rejected.items():
             rejected[k] = rejected.get(k, 0) + v
-    print(f"rogue sent {sent}; the router let through {seen_during_run}; the relay rejected {relay_rejected}; "
-          f"agents rejected {rejected}")
+    print(
+        f"rogue sent {sent}; the router let through {seen_during_run}; the relay rejected {relay_rejected}; "
+        f"agents rejected {rejected}"
+    )
     ref = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     got = np.array([res.finals[i].state for i in setup.ids])
     assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10 and sent["wildcard"] > 100
@@ -320,9 +339,16 @@ def test_a_state_is_taken_only_from_its_senders_key_or_an_exact_cell_key():
     run = "r"
     assert keys.state_key(run, 7) == "fluidswarm/r/state/bdfgikmoqsuwy"
     assert keys.state_key_vouches(keys.state_key(run, 7), 7) and keys.state_key_vouches(keys.cell_key(run, -1, 2), 7)
-    for key in (keys.state_key(run, 8), keys.state_key(run, 7) + "/1", f"fluidswarm/{run}/state/*",
-                f"fluidswarm/{run}/state/**", "fluidswarm/**", keys.cell_key(run, -1, 2) + "/x",
-                f"fluidswarm/{run}/state/01/2", keys.event_key(run, 7)):
+    for key in (
+        keys.state_key(run, 8),
+        keys.state_key(run, 7) + "/1",
+        f"fluidswarm/{run}/state/*",
+        f"fluidswarm/{run}/state/**",
+        "fluidswarm/**",
+        keys.cell_key(run, -1, 2) + "/x",
+        f"fluidswarm/{run}/state/01/2",
+        keys.event_key(run, 7),
+    ):
         assert not keys.state_key_vouches(key, 7), key
     # observers take each state once: from the id keys under per-process rights (not the relay's copies)
     assert keys.state_observed_expr(run, True) == "fluidswarm/r/state/*"
@@ -348,24 +374,48 @@ def test_an_id_chunk_holds_none_of_the_letters_another_ids_rules_deny():
 # sessions: user -> [(put or token, key, passes?)]
 RUN = "R"
 RIGHTS = {
-    "agent-5": [("put", keys.state_key(RUN, 5), True), ("put", keys.event_key(RUN, 5), True),
-                ("put", keys.final_key(RUN, 5), True), ("token", keys.alive_key(RUN, 5), True),
-                ("put", keys.state_key(RUN, 5) + "/1", False),
-                ("put", keys.state_key(RUN, 4), False), ("put", keys.state_key(RUN, 7), False),
-                ("put", keys.state_key(RUN, 5 + 4096), False), ("put", keys.cell_key(RUN, 1, -2), False),
-                ("put", keys.event_key(RUN, 6), False), ("put", keys.final_key(RUN, 13), False),
-                ("put", f"fluidswarm/**/{keys.id_chunk(4)}", False), ("put", keys.ctl_key(RUN, "stop"), False),
-                ("put", keys.command_key(RUN), False), ("put", keys.alive_key(RUN, 5), False),
-                ("token", keys.alive_key(RUN, 4), False), ("token", f"fluidswarm/{RUN}/recorder", False),
-                ("delete", keys.event_key(RUN, 5), False)],
-    "coordinator": [("put", keys.command_key(RUN), True), ("token", f"fluidswarm/{RUN}/coordinator", True),
-                    ("put", keys.ctl_key(RUN, "stop"), False), ("put", keys.state_key(RUN, 5), False),
-                    ("token", f"fluidswarm/{RUN}/recorder", False), ("put", keys.cell_key(RUN, 1, -2), False)],
-    "recorder": [("token", f"fluidswarm/{RUN}/recorder", True), ("put", keys.command_key(RUN), False),
-                 ("put", keys.event_key(RUN, 5), False), ("token", keys.alive_key(RUN, 4), False)],
-    "launcher": [("put", keys.ctl_key(RUN, "stop"), True), ("put", keys.cell_key(RUN, 1, -2), True),
-                 ("put", keys.state_key(RUN, 5), False), ("put", keys.cell_key(RUN, 1, -2) + "/x", False),
-                 ("put", keys.command_key(RUN), False), ("token", keys.alive_key(RUN, 4), False)],
+    "agent-5": [
+        ("put", keys.state_key(RUN, 5), True),
+        ("put", keys.event_key(RUN, 5), True),
+        ("put", keys.final_key(RUN, 5), True),
+        ("token", keys.alive_key(RUN, 5), True),
+        ("put", keys.state_key(RUN, 5) + "/1", False),
+        ("put", keys.state_key(RUN, 4), False),
+        ("put", keys.state_key(RUN, 7), False),
+        ("put", keys.state_key(RUN, 5 + 4096), False),
+        ("put", keys.cell_key(RUN, 1, -2), False),
+        ("put", keys.event_key(RUN, 6), False),
+        ("put", keys.final_key(RUN, 13), False),
+        ("put", f"fluidswarm/**/{keys.id_chunk(4)}", False),
+        ("put", keys.ctl_key(RUN, "stop"), False),
+        ("put", keys.command_key(RUN), False),
+        ("put", keys.alive_key(RUN, 5), False),
+        ("token", keys.alive_key(RUN, 4), False),
+        ("token", f"fluidswarm/{RUN}/recorder", False),
+        ("delete", keys.event_key(RUN, 5), False),
+    ],
+    "coordinator": [
+        ("put", keys.command_key(RUN), True),
+        ("token", f"fluidswarm/{RUN}/coordinator", True),
+        ("put", keys.ctl_key(RUN, "stop"), False),
+        ("put", keys.state_key(RUN, 5), False),
+        ("token", f"fluidswarm/{RUN}/recorder", False),
+        ("put", keys.cell_key(RUN, 1, -2), False),
+    ],
+    "recorder": [
+        ("token", f"fluidswarm/{RUN}/recorder", True),
+        ("put", keys.command_key(RUN), False),
+        ("put", keys.event_key(RUN, 5), False),
+        ("token", keys.alive_key(RUN, 4), False),
+    ],
+    "launcher": [
+        ("put", keys.ctl_key(RUN, "stop"), True),
+        ("put", keys.cell_key(RUN, 1, -2), True),
+        ("put", keys.state_key(RUN, 5), False),
+        ("put", keys.cell_key(RUN, 1, -2) + "/x", False),
+        ("put", keys.command_key(RUN), False),
+        ("token", keys.alive_key(RUN, 4), False),
+    ],
 }
 
 

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from agent.fill import inside, nearest_point
-from coordinator.control.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
-from agent.sph.particle import NFIELDS, Control
-from agent.protocol.wire import decode_state, encode_state
 from agent.protocol.command import CommandRejected, Fill, Waypoint, Zone, decode, edges_cross
+from agent.protocol.wire import decode_state, encode_state
+from agent.sph.particle import NFIELDS, Control
+from coordinator.control.route import CommandFollower, FillFollower, RouteFollower, class_counts, class_of
 
 VECTORS = Path(__file__).resolve().parent / "vectors"
 
@@ -56,14 +56,24 @@ def test_command(v):
     except CommandRejected as exc:
         assert v["expect"] == {"reject": exc.reason}
         return
-    got = {"accept": True, "seq": cmd.seq, "gesture": cmd.gesture, "n_agents": cmd.n_agents,
-           "classes": [[c.name, c.share, [[w.x, w.y, w.r, w.s, w.alpha, w.beta, w.mu] for w in c.route]]
-                       for c in cmd.classes],
-           "beta": cmd.beta, "mu": cmd.mu}
+    got = {
+        "accept": True,
+        "seq": cmd.seq,
+        "gesture": cmd.gesture,
+        "n_agents": cmd.n_agents,
+        "classes": [
+            [c.name, c.share, [[w.x, w.y, w.r, w.s, w.alpha, w.beta, w.mu] for w in c.route]] for c in cmd.classes
+        ],
+        "beta": cmd.beta,
+        "mu": cmd.mu,
+    }
     if cmd.fill is not None:
-        got["fill"] = {"rings": [[list(p) for p in ring] for ring in cmd.fill.rings], "alpha": cmd.fill.alpha,
-                       "s": cmd.fill.s,
-                       "zones": [[z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu] for z in cmd.fill.zones]}
+        got["fill"] = {
+            "rings": [[list(p) for p in ring] for ring in cmd.fill.rings],
+            "alpha": cmd.fill.alpha,
+            "s": cmd.fill.s,
+            "zones": [[z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu] for z in cmd.fill.zones],
+        }
     assert same(got, v["expect"])
 
 
@@ -76,8 +86,11 @@ SEQUENCES = load("command_sequences.json")
 
 @pytest.mark.parametrize("seq", SEQUENCES["sequences"], ids=lambda s: f"agent{s['agent_id']}")
 def test_command_follower(seq):
-    spec = SimpleNamespace(secret=SEQUENCES["secret_hex"], id=seq["agent_id"],
-                           static_control=lambda: Control(1.0, 2.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0))
+    spec = SimpleNamespace(
+        secret=SEQUENCES["secret_hex"],
+        id=seq["agent_id"],
+        static_control=lambda: Control(1.0, 2.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0),
+    )
     f = CommandFollower(spec)
     for k, step in enumerate(seq["steps"]):
         if "offer_hex" in step:

@@ -175,8 +175,15 @@ class LaunchAccess:
     `user`/`password`, every process shares them (a router without per-process rights).
     """
 
-    def __init__(self, credential_of, own: Credential | None = None, users_file: UsersFile | None = None,
-                 acl: dict | None = None, capacity: int | None = None, users_file_rights: bool = False):
+    def __init__(
+        self,
+        credential_of,
+        own: Credential | None = None,
+        users_file: UsersFile | None = None,
+        acl: dict | None = None,
+        capacity: int | None = None,
+        users_file_rights: bool = False,
+    ):
         self._credential_of = credential_of  # user name -> Credential | None
         self.own = own
         self._file = users_file
@@ -189,7 +196,7 @@ class LaunchAccess:
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod
-    def embedded(cls) -> "LaunchAccess":
+    def embedded(cls) -> LaunchAccess:
         lvl = level()
         if lvl == "none":
             return cls(lambda user: None)
@@ -197,11 +204,16 @@ class LaunchAccess:
         creds = key.users(AGENT_CAPACITY)
         acl = acl_config([c.user for c in creds]) if lvl == "acl" else None
         # `own`: at acl the launcher is a client of its (compiled) router, with the launcher's credentials
-        return cls(key.credential, own=key.credential("launcher"), users_file=UsersFile(creds), acl=acl,
-                   capacity=AGENT_CAPACITY)
+        return cls(
+            key.credential,
+            own=key.credential("launcher"),
+            users_file=UsersFile(creds),
+            acl=acl,
+            capacity=AGENT_CAPACITY,
+        )
 
     @classmethod
-    def client(cls, user: str = "", password: str = "", users_file: str = "") -> "LaunchAccess":
+    def client(cls, user: str = "", password: str = "", users_file: str = "") -> LaunchAccess:
         source = "--auth-file" if users_file else AUTH_FILE_ENV
         users_file = users_file or os.environ.get(AUTH_FILE_ENV, "")
         if users_file:
@@ -229,8 +241,10 @@ class LaunchAccess:
 
     def env_for_agent(self, agent_id: int) -> dict[str, str]:
         if not 0 <= agent_id < keys.MAX_AGENTS:
-            raise ValueError(f"agent id {agent_id}: ids 0..{keys.MAX_AGENTS - 1} only (an agent's keys hold its id "
-                             f"in {keys.ID_BITS} bits, docs/protocol.md)")
+            raise ValueError(
+                f"agent id {agent_id}: ids 0..{keys.MAX_AGENTS - 1} only (an agent's keys hold its id "
+                f"in {keys.ID_BITS} bits, docs/protocol.md)"
+            )
         if self.capacity is not None and not 0 <= agent_id < self.capacity:
             raise ValueError(f"agent id {agent_id}: this run's router knows ids 0..{self.capacity - 1} only")
         cred = self._credential_of(agent_user(agent_id))

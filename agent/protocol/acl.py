@@ -46,7 +46,7 @@ def _bit_rule(k: int, bit: int) -> str:
 
 def agent_id_of(user: str) -> int | None:
     """The id of user `agent-<id>`, None for any other name."""
-    return int(user[len("agent-"):]) if _AGENT_RE.match(user) else None
+    return int(user[len("agent-") :]) if _AGENT_RE.match(user) else None
 
 
 def _agent_ids(users: list[str]) -> list[int]:
@@ -73,7 +73,9 @@ def acl_config(users: list[str]) -> dict:
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
         # launcher (a client of its router: at acl, and multi-host): ctl, and its relay's puts on cell keys
         # (agent/relay.py; the compiled router's relay is the router itself), never an agent's id key
-        _deny("launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]),
+        _deny(
+            "launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]
+        ),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator
         _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
@@ -86,11 +88,14 @@ def acl_config(users: list[str]) -> dict:
     # "bit k is not b": agent ids whose bit k is 1-b may not use keys whose last chunk holds letter (k, b)
     for k in range(keys.ID_BITS):
         for bit in (0, 1):
-            rules.append(_deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"],
-                               [f"**/$*{keys.bit_letter(k, bit)}$*"]))
-    role_rules = {"launcher": ["never", "no-admin", "launcher-put", "launcher-token"],
-                  "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
-                  "recorder": ["never", "no-admin", "recorder-never", "recorder-token"]}
+            rules.append(
+                _deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"], [f"**/$*{keys.bit_letter(k, bit)}$*"])
+            )
+    role_rules = {
+        "launcher": ["never", "no-admin", "launcher-put", "launcher-token"],
+        "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
+        "recorder": ["never", "no-admin", "recorder-never", "recorder-token"],
+    }
     subjects, policies = [], []
     for role in role_rules:
         # `router` (another host's router) gets no rule: it may do everything (it checks its own clients
@@ -104,7 +109,11 @@ def acl_config(users: list[str]) -> dict:
             raise ValueError(f"agent-{i}: ids 0..{keys.MAX_AGENTS - 1} only (keys.ID_BITS)")
         subjects.append({"id": f"agent-{i}", "usernames": [f"agent-{i}"]})
         bits = [_bit_rule(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS)]
-        policies.append({"id": f"agent-{i}", "rules": ["never", "no-admin", "agent-never", "agent-put",
-                                                          "agent-token"] + bits, "subjects": [f"agent-{i}"]})
-    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects,
-            "policies": policies}
+        policies.append(
+            {
+                "id": f"agent-{i}",
+                "rules": ["never", "no-admin", "agent-never", "agent-put", "agent-token"] + bits,
+                "subjects": [f"agent-{i}"],
+            }
+        )
+    return {"enabled": True, "default_permission": "allow", "rules": rules, "subjects": subjects, "policies": policies}

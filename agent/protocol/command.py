@@ -102,13 +102,21 @@ class GestureCommand:
         if self.fill is None:
             del d["fill"]  # commands without a shape keep their v1 bytes
         else:
-            d["fill"] = {"rings": [[list(v) for v in ring] for ring in self.fill.rings],
-                         "alpha": self.fill.alpha, "s": self.fill.s}
+            d["fill"] = {
+                "rings": [[list(v) for v in ring] for ring in self.fill.rings],
+                "alpha": self.fill.alpha,
+                "s": self.fill.s,
+            }
             if self.fill.zones:  # a shape without zones keeps its bytes
                 d["fill"]["zones"] = [asdict(z) for z in self.fill.zones]
-        d["classes"] = [{"name": c.name, "share": c.share,
-                         "route": [{k: v for k, v in asdict(w).items() if v is not None} for w in c.route]}
-                        for c in self.classes]
+        d["classes"] = [
+            {
+                "name": c.name,
+                "share": c.share,
+                "route": [{k: v for k, v in asdict(w).items() if v is not None} for w in c.route],
+            }
+            for c in self.classes
+        ]
         return d
 
     def encode(self, secret: bytes) -> bytes:
@@ -196,16 +204,16 @@ def verify(data: bytes, secret: bytes) -> bytes:
     data = bytes(data)
     if not data.startswith(_V1):
         end = data.find(b",", len(_HEAD)) if data.startswith(_HEAD) else -1
-        v = data[len(_HEAD):end] if end >= 0 else b""
+        v = data[len(_HEAD) : end] if end >= 0 else b""
         if v.isdigit() and v != b"1":
             raise CommandRejected("version", f"v={v[:20].decode()}")
         raise CommandRejected("malformed", 'not an envelope {"v":1,"body":...,"sig":"..."}')
     n = len(data)
-    if n < len(_V1) + _TAIL_LEN or data[n - _TAIL_LEN:n - 66] != _SIG_KEY or data[n - 2:] != _TAIL_END:
+    if n < len(_V1) + _TAIL_LEN or data[n - _TAIL_LEN : n - 66] != _SIG_KEY or data[n - 2 :] != _TAIL_END:
         raise CommandRejected("signature", "unsigned, or not a hex HMAC-SHA256")
-    body = data[len(_V1):n - _TAIL_LEN]
+    body = data[len(_V1) : n - _TAIL_LEN]
     expected = hmac.new(secret, body, hashlib.sha256).hexdigest().encode()
-    if not hmac.compare_digest(expected, data[n - 66:n - 2]):
+    if not hmac.compare_digest(expected, data[n - 66 : n - 2]):
         raise CommandRejected("signature")
     return body
 
@@ -251,9 +259,17 @@ def parse_body(body: dict) -> GestureCommand:
         wps = []
         for w in route:
             _only(w, {"x", "y", "r", "s", "alpha", "beta", "mu"}, "waypoint")
-            wps.append(Waypoint(_num(w, "x", -MAX_COORD, MAX_COORD), _num(w, "y", -MAX_COORD, MAX_COORD),
-                                _num(w, "r", 0.0, MAX_COORD), _num(w, "s", 0.0, MAX_COORD), _num(w, "alpha", 0.0, 1e4),
-                                _num(w, "beta", 0.0, 1e4, optional=True), _num(w, "mu", 0.0, 1e4, optional=True)))
+            wps.append(
+                Waypoint(
+                    _num(w, "x", -MAX_COORD, MAX_COORD),
+                    _num(w, "y", -MAX_COORD, MAX_COORD),
+                    _num(w, "r", 0.0, MAX_COORD),
+                    _num(w, "s", 0.0, MAX_COORD),
+                    _num(w, "alpha", 0.0, 1e4),
+                    _num(w, "beta", 0.0, 1e4, optional=True),
+                    _num(w, "mu", 0.0, 1e4, optional=True),
+                )
+            )
         classes.append(ParticleClass(name, share, tuple(wps)))
     if sum(c.share for c in classes) <= 0:
         raise CommandRejected("malformed", "shares sum to 0")
@@ -261,8 +277,9 @@ def parse_body(body: dict) -> GestureCommand:
     if not isinstance(extra, dict):
         raise CommandRejected("malformed", "extra")
     fill = _fill(body["fill"]) if "fill" in body else None
-    return GestureCommand(seq, gesture, n, tuple(classes), _num(body, "beta", 0.0, 1e4), _num(body, "mu", 0.0, 1e4),
-                          extra, fill)
+    return GestureCommand(
+        seq, gesture, n, tuple(classes), _num(body, "beta", 0.0, 1e4), _num(body, "mu", 0.0, 1e4), extra, fill
+    )
 
 
 def _fill(f) -> Fill:
@@ -304,8 +321,16 @@ def _zone(z) -> Zone:
     a, b = _num(z, "a", 0.0, MAX_COORD), _num(z, "b", 0.0, MAX_COORD)
     if not (a > 0.0 and b > 0.0):
         raise CommandRejected("malformed", "fill zone semi-axes must be > 0")
-    return Zone(_num(z, "x", -MAX_COORD, MAX_COORD), _num(z, "y", -MAX_COORD, MAX_COORD), ux, uy, a, b,
-                _num(z, "beta", 0.0, 1e4), _num(z, "mu", 0.0, 1e4))
+    return Zone(
+        _num(z, "x", -MAX_COORD, MAX_COORD),
+        _num(z, "y", -MAX_COORD, MAX_COORD),
+        ux,
+        uy,
+        a,
+        b,
+        _num(z, "beta", 0.0, 1e4),
+        _num(z, "mu", 0.0, 1e4),
+    )
 
 
 def _side(ax, ay, bx, by, cx, cy):
@@ -325,7 +350,9 @@ def edges_cross(rings) -> bool:
         ax, ay, bx, by = edges[a]
         for b in range(a + 1, len(edges)):
             cx, cy, dx, dy = edges[b]
-            if _side(ax, ay, bx, by, cx, cy) * _side(ax, ay, bx, by, dx, dy) < 0 and \
-                    _side(cx, cy, dx, dy, ax, ay) * _side(cx, cy, dx, dy, bx, by) < 0:
+            if (
+                _side(ax, ay, bx, by, cx, cy) * _side(ax, ay, bx, by, dx, dy) < 0
+                and _side(cx, cy, dx, dy, ax, ay) * _side(cx, cy, dx, dy, bx, by) < 0
+            ):
                 return True
     return False

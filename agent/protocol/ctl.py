@@ -108,7 +108,7 @@ def decode_ctl(what: str | None, data: bytes) -> Ctl | None:
     if version != VERSION or code not in CtlKind._value2member_map_:
         return None
     kind = CtlKind(code)
-    body = data[_HEAD.size:]
+    body = data[_HEAD.size :]
     if kind.what != what:
         return None
     if kind in (CtlKind.START, CtlKind.STOP):

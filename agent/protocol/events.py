@@ -70,11 +70,18 @@ class AgentEvent:
         return out
 
 
-_FIELDS = {EventKind.STARTED: set(), EventKind.FELL_BEHIND: set(),
-           EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
-           EventKind.NEIGHBOUR_TIMEOUT: {"neighbours", "last_seen"}, EventKind.REJOINED: {"from_step"}}
-_REQUIRED = {EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"}, EventKind.NEIGHBOUR_TIMEOUT: {"neighbours"},
-             EventKind.REJOINED: {"from_step"}}
+_FIELDS = {
+    EventKind.STARTED: set(),
+    EventKind.FELL_BEHIND: set(),
+    EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
+    EventKind.NEIGHBOUR_TIMEOUT: {"neighbours", "last_seen"},
+    EventKind.REJOINED: {"from_step"},
+}
+_REQUIRED = {
+    EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
+    EventKind.NEIGHBOUR_TIMEOUT: {"neighbours"},
+    EventKind.REJOINED: {"from_step"},
+}
 
 
 def encode_event(event: AgentEvent) -> bytes:

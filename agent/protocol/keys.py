@@ -142,7 +142,7 @@ def ctl_what(run: str, key: str) -> str | None:
     """`start`, `stop`, ... for exactly `fluidswarm/<run>/ctl/<what>`, else None (a wildcard key such as
     `fluidswarm/**` reaches a ctl subscriber too; only the launcher may put the exact keys)."""
     head = f"{PREFIX}/{run}/ctl/"
-    what = key[len(head):] if key.startswith(head) else ""
+    what = key[len(head) :] if key.startswith(head) else ""
     return what if _CTL_RE.match(what) else None
 
 

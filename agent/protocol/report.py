@@ -65,8 +65,17 @@ class FinalReport:
         return self.status is Status.DONE
 
 
-_COUNTS = ("msgs_received", "neighbours", "timeouts", "deaths_seen", "stale", "dropped_out", "lost",
-           "commands_accepted", "particle_class")
+_COUNTS = (
+    "msgs_received",
+    "neighbours",
+    "timeouts",
+    "deaths_seen",
+    "stale",
+    "dropped_out",
+    "lost",
+    "commands_accepted",
+    "particle_class",
+)
 _SIGNED = ("waypoint_index", "command_seq")
 _OPTIONAL_TIMES = ("t_start", "t_end", "session_opened_at", "cpu_seconds_at_start", "first_command_at")
 _TIMES = ("rss_mb", "cpu_seconds")
@@ -86,10 +95,14 @@ def decode_report(data: bytes) -> FinalReport | None:
         rejected = msg.get("rejected", {})
         if not isinstance(rejected, dict) or len(rejected) > 64:
             return None
-        kw = {"id": integer(msg["id"], 0, 2**31 - 1), "status": Status(msg["status"]),
-              "steps": integer(msg["steps"], 0, MAX_COUNT), "state": tuple(number(v, -MAX_ABS, MAX_ABS) for v in state),
-              "rejected": {str(k)[:64]: integer(v, 0, MAX_COUNT) for k, v in rejected.items()},
-              "agent": str(msg.get("agent", ""))[:32]}
+        kw = {
+            "id": integer(msg["id"], 0, 2**31 - 1),
+            "status": Status(msg["status"]),
+            "steps": integer(msg["steps"], 0, MAX_COUNT),
+            "state": tuple(number(v, -MAX_ABS, MAX_ABS) for v in state),
+            "rejected": {str(k)[:64]: integer(v, 0, MAX_COUNT) for k, v in rejected.items()},
+            "agent": str(msg.get("agent", ""))[:32],
+        }
         for name in _COUNTS:
             if name in msg:
                 kw[name] = integer(msg[name], 0, MAX_COUNT)

@@ -10,7 +10,9 @@ import zenoh
 from agent.protocol.access import PASSWORD_ENV, USER_ENV
 
 
-def client_config(endpoints: list[str], user: str = "", password: str = "", tls: "TlsFiles | None" = None) -> zenoh.Config:
+def client_config(
+    endpoints: list[str], user: str = "", password: str = "", tls: TlsFiles | None = None
+) -> zenoh.Config:
     """A client that keeps retrying its router: 200 processes starting at once overwhelm a router's
     accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms lets them retry.
 
@@ -37,9 +39,15 @@ MAX_SESSIONS = 20000
 ACCEPT_PENDING = 2000
 
 
-def router_settings(listen: list[str], connect: list[str] | None = None, dictionary_file: str = "",
-                    user: str = "", password: str = "", acl: dict | None = None,
-                    tls: "TlsFiles | None" = None) -> dict[str, object]:
+def router_settings(
+    listen: list[str],
+    connect: list[str] | None = None,
+    dictionary_file: str = "",
+    user: str = "",
+    password: str = "",
+    acl: dict | None = None,
+    tls: TlsFiles | None = None,
+) -> dict[str, object]:
     """A router's settings (config path -> value), for zenoh-python's in-process router (router_config) and for
     the compiled one (agent/router_process.py writes them as a JSON file: router_config_dict).
 
@@ -47,11 +55,14 @@ def router_settings(listen: list[str], connect: list[str] | None = None, diction
     `access_control` section (agent/protocol/access.py: acl_config); `user`/`password`: this router's own
     credentials towards the routers it connects to; `tls`: certificates for `tls/` endpoints."""
     settings: dict[str, object] = {
-        "mode": "router", "listen/endpoints": list(listen), "connect/endpoints": list(connect or []),
+        "mode": "router",
+        "listen/endpoints": list(listen),
+        "connect/endpoints": list(connect or []),
         "scouting/multicast/enabled": False,
         # zenoh's defaults (1000 sessions, 100 handshakes pending) cap a swarm below 1000 agents: every agent,
         # the recorder and the coordinator are sessions of this router, and they all connect at once.
-        "transport/unicast/max_sessions": MAX_SESSIONS, "transport/unicast/accept_pending": ACCEPT_PENDING,
+        "transport/unicast/max_sessions": MAX_SESSIONS,
+        "transport/unicast/accept_pending": ACCEPT_PENDING,
     }
     if dictionary_file:
         settings["transport/auth/usrpwd/dictionary_file"] = dictionary_file
@@ -98,9 +109,15 @@ class TlsFiles:
         self.ca, self.cert, self.key = ca, cert, key
 
     def settings(self) -> dict[str, object]:
-        tls = {"root_ca_certificate": self.ca, "listen_certificate": self.cert, "listen_private_key": self.key,
-               "connect_certificate": self.cert, "connect_private_key": self.key,
-               "enable_mtls": True, "verify_name_on_connect": False}
+        tls = {
+            "root_ca_certificate": self.ca,
+            "listen_certificate": self.cert,
+            "listen_private_key": self.key,
+            "connect_certificate": self.cert,
+            "connect_private_key": self.key,
+            "enable_mtls": True,
+            "verify_name_on_connect": False,
+        }
         return {f"transport/link/tls/{k}": v for k, v in tls.items()}
 
     def apply(self, conf: zenoh.Config) -> None:

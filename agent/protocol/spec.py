@@ -13,7 +13,6 @@ from agent.sph.particle import Control
 from agent.sph.robot import RobotModel
 
 
-
 class SyncMode(StrEnum):
     """How the agents keep step: lockstep (a step waits for every neighbour's previous one: exact, the
     reference drivers' result) or async (each agent at its own rate on its neighbours' latest states)."""
@@ -95,7 +94,7 @@ class AgentSpec:
         return json.dumps(asdict(self), separators=(",", ":"))
 
     @classmethod
-    def from_json(cls, text: str) -> "AgentSpec":
+    def from_json(cls, text: str) -> AgentSpec:
         try:
             raw = json.loads(text)
         except json.JSONDecodeError as exc:
@@ -123,8 +122,11 @@ class AgentSpec:
             raise ValueError(f"agent spec: id must be an integer in [0, {MAX_AGENTS}), got {self.id!r}")
         if not isinstance(self.steps, int) or self.steps < 0:
             raise ValueError(f"agent spec: steps must be a non-negative integer, got {self.steps!r}")
-        if (not isinstance(self.initial, list) or len(self.initial) != 4
-                or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.initial)):
+        if (
+            not isinstance(self.initial, list)
+            or len(self.initial) != 4
+            or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.initial)
+        ):
             raise ValueError(f"agent spec: initial must be [x, y, vx, vy] finite numbers, got {self.initial!r}")
         if not isinstance(self.connect, list) or not all(isinstance(e, str) and e for e in self.connect):
             raise ValueError("agent spec: connect must be a list of endpoints")
@@ -137,10 +139,17 @@ class AgentSpec:
         if not isinstance(self.drop_out, (int, float)) or not 0 <= self.drop_out < 1:
             raise ValueError(f"agent spec: drop_out must be in [0, 1), got {self.drop_out!r}")
         if not isinstance(self.neighbours, list) or not all(
-                isinstance(n, list) and len(n) == 3 and isinstance(n[0], int) and not isinstance(n[0], bool)
-                and 0 <= n[0] < MAX_AGENTS and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
-                for n in self.neighbours):
-            raise ValueError(f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)")
+            isinstance(n, list)
+            and len(n) == 3
+            and isinstance(n[0], int)
+            and not isinstance(n[0], bool)
+            and 0 <= n[0] < MAX_AGENTS
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
+            for n in self.neighbours
+        ):
+            raise ValueError(
+                f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)"
+            )
         self.robot_model().check_fits(self.sph_params().v_max)
         self.static_control()
 

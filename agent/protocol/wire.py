@@ -22,11 +22,10 @@ pose), whatever its length.
 
 from __future__ import annotations
 
+import math
 import struct
 
-import math
-
-from agent.sph.particle import FROZEN, HEADING, NFIELDS, SPEED, X
+from agent.sph.particle import FROZEN, HEADING, SPEED, X
 
 VERSION = 2
 KIND_STATE = 1
@@ -48,8 +47,18 @@ REJECT_VALUE = "value"
 
 def encode_state(agent_id: int, step: int, state, particle_class: int = 0) -> bytes:
     flags = 1 if state[FROZEN] != 0.0 else 0
-    return _RECORD.pack(VERSION, KIND_STATE, flags, agent_id, step, particle_class, 0, *map(float, state[X:FROZEN]),
-                        float(state[HEADING]), float(state[SPEED]))
+    return _RECORD.pack(
+        VERSION,
+        KIND_STATE,
+        flags,
+        agent_id,
+        step,
+        particle_class,
+        0,
+        *map(float, state[X:FROZEN]),
+        float(state[HEADING]),
+        float(state[SPEED]),
+    )
 
 
 def peek_id_step(data: bytes) -> tuple[int, int] | None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.sph.kernel import gaussian_kernel, kernel_gradient
+from agent.sph.kernel import gaussian_kernel
 
 
 def density(r_ij: np.ndarray, m_j: np.ndarray | float, h: float, kappa: float = 2.0) -> float:

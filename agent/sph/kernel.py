@@ -28,5 +28,5 @@ def kernel_gradient(dx: np.ndarray, dy: np.ndarray, h: float, kappa: float = 2.0
     dx = np.asarray(dx, dtype=float)
     dy = np.asarray(dy, dtype=float)
     R2 = (dx * dx + dy * dy) / (h * h)
-    factor = np.where(R2 <= kappa * kappa, -2.0 * np.exp(-R2) / (math.pi * h ** 4), 0.0)
+    factor = np.where(R2 <= kappa * kappa, -2.0 * np.exp(-R2) / (math.pi * h**4), 0.0)
     return factor * dx, factor * dy

@@ -11,7 +11,6 @@ from dataclasses import asdict, dataclass, fields, replace
 from enum import StrEnum
 
 
-
 class Border(StrEnum):
     """What happens to a particle that leaves the domain (SPHParams.border)."""
 
@@ -78,7 +77,9 @@ class SPHParams:
                 if f.name in non_negative and value < 0:
                     raise ValueError(f"SPHParams.{f.name}: must be >= 0, got {value!r}")
         if len(self.domain) != 4 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.domain):
-            raise ValueError(f"SPHParams.domain: must be four finite numbers (xmin, xmax, ymin, ymax), got {self.domain!r}")
+            raise ValueError(
+                f"SPHParams.domain: must be four finite numbers (xmin, xmax, ymin, ymax), got {self.domain!r}"
+            )
         xmin, xmax, ymin, ymax = self.domain
         if not (xmin < xmax and ymin < ymax):
             raise ValueError(f"SPHParams.domain: need xmin < xmax and ymin < ymax, got {self.domain!r}")
@@ -96,10 +97,10 @@ class SPHParams:
         """Largest distance a particle can move in one step [m] (speed limit times dt)."""
         return self.v_max * self.dt
 
-    def with_(self, **changes) -> "SPHParams":
+    def with_(self, **changes) -> SPHParams:
         return replace(self, **changes)
 
-    def with_overrides(self, fields: dict, dt: float = 0.0) -> "SPHParams":
+    def with_overrides(self, fields: dict, dt: float = 0.0) -> SPHParams:
         """These parameters with a scenario's [sph] table (and dt when > 0) applied, validated again."""
         changes = dict(fields)
         if "domain" in changes:

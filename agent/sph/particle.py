@@ -21,12 +21,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.sph.equations import (artificial_viscosity, body_force, density_terms, momentum_terms,
-                                  stress_rate_terms, tait_pressure)
+from agent.sph.equations import (
+    artificial_viscosity,
+    body_force,
+    density_terms,
+    momentum_terms,
+    stress_rate_terms,
+    tait_pressure,
+)
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
-from agent.sph.robot import (POINT, RobotKind, RobotModel, contact_acceleration, holonomic_velocity, initial_pose,
-                             unicycle_step)
+from agent.sph.robot import (
+    POINT,
+    RobotKind,
+    RobotModel,
+    contact_acceleration,
+    holonomic_velocity,
+    initial_pose,
+    unicycle_step,
+)
 
 # State layout: position, velocity, then the lagged fluid quantities the neighbours need, then flags, then
 # a robot's pose (agent/sph/robot.py): heading [rad] and forward speed [m/s] of a unicycle (0 otherwise).
@@ -56,7 +69,7 @@ class Control:
     push_x: float = 0.0
     push_y: float = 0.0
 
-    def control(self, state: np.ndarray, step: int) -> "Control":
+    def control(self, state: np.ndarray, step: int) -> Control:
         """A Control is its own (static) control source."""
         return self
 
@@ -79,8 +92,9 @@ def interacting(own: np.ndarray, neighbours: np.ndarray, params: SPHParams) -> n
     return neighbours[(dx * dx + dy * dy <= support * support) & (neighbours[:, FROZEN] == 0.0)]
 
 
-def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, params: SPHParams,
-                  robot: RobotModel = POINT) -> np.ndarray:
+def step_particle(
+    own: np.ndarray, neighbours: np.ndarray, control: Control, params: SPHParams, robot: RobotModel = POINT
+) -> np.ndarray:
     """Next state of one particle from its own state and its neighbours' states (rows sorted by id).
 
     `neighbours` may hold any superset of the particles within kappa*h (self excluded): rows outside the
@@ -100,8 +114,22 @@ def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, par
 
     # Momentum equation (eq. 3.7-3.8) with the lagged rho, p and stress of step n-1.
     pi_ij = artificial_viscosity(dx, dy, dvx, dvy, own[RHO], nb[:, RHO], h, params.beta_pi)
-    ax, ay = momentum_terms(dWdx, dWdy, m, own[RHO], nb[:, RHO], own[P], nb[:, P], pi_ij,
-                            own[SXX], own[SXY], own[SYY], nb[:, SXX], nb[:, SXY], nb[:, SYY])
+    ax, ay = momentum_terms(
+        dWdx,
+        dWdy,
+        m,
+        own[RHO],
+        nb[:, RHO],
+        own[P],
+        nb[:, P],
+        pi_ij,
+        own[SXX],
+        own[SXY],
+        own[SYY],
+        nb[:, SXX],
+        nb[:, SXY],
+        nb[:, SYY],
+    )
     fx, fy = body_force(own[X], own[Y], control.wx, control.wy, control.r, control.s, control.alpha)
     acc_x = float(np.sum(ax)) + float(fx) + control.push_x - params.drag * own[VX]
     acc_y = float(np.sum(ay)) + float(fy) + control.push_y - params.drag * own[VY]
@@ -113,7 +141,8 @@ def step_particle(own: np.ndarray, neighbours: np.ndarray, control: Control, par
     new[VX], new[VY] = own[VX] + params.dt * acc_x, own[VY] + params.dt * acc_y
     if robot.kind == RobotKind.UNICYCLE:
         (new[X], new[Y], new[VX], new[VY], new[HEADING], new[SPEED]) = unicycle_step(
-            own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt)
+            own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt
+        )
     else:
         if robot.kind == RobotKind.HOLONOMIC:
             new[VX], new[VY] = holonomic_velocity(own[VX], own[VY], new[VX], new[VY], robot, params.dt)

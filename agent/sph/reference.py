@@ -8,20 +8,49 @@ all pairs at once with a cell-list neighbour search: fast, and equal to the refe
 
 from __future__ import annotations
 
-from typing import Protocol, Sequence
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
-from agent.sph.equations import (artificial_viscosity, body_force, density_terms, momentum_terms,
-                                  stress_rate_terms, tait_pressure)
+from agent.sph.equations import (
+    artificial_viscosity,
+    body_force,
+    density_terms,
+    momentum_terms,
+    stress_rate_terms,
+    tait_pressure,
+)
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
 from agent.sph.params import SPHParams
 from agent.sph.particle import (
-    FROZEN, HEADING, NFIELDS, P, RHO, SPEED, SXX, SXY, SYY, VX, VY, X, Y,
-    Control, apply_border, cap_speed, step_particle,
+    FROZEN,
+    HEADING,
+    RHO,
+    SPEED,
+    SXX,
+    SXY,
+    SYY,
+    VX,
+    VY,
+    Control,
+    P,
+    X,
+    Y,
+    apply_border,
+    cap_speed,
+    step_particle,
 )
-from agent.sph.robot import (CONTACT_MARGIN, POINT, RobotKind, RobotModel, body_centres, contact_terms,
-                             holonomic_velocity, unicycle_step)
+from agent.sph.robot import (
+    CONTACT_MARGIN,
+    POINT,
+    RobotKind,
+    RobotModel,
+    body_centres,
+    contact_terms,
+    holonomic_velocity,
+    unicycle_step,
+)
 
 
 class ControlSource(Protocol):
@@ -80,8 +109,14 @@ class Driver:
     `step()` a time step of all of them; `run(steps)` returns the states after the last. `robot`: every
     particle's body and drive (agent/sph/robot.py)."""
 
-    def __init__(self, ids: Sequence[int], states: np.ndarray, controls: Sequence[ControlSource], params: SPHParams,
-                 robot: RobotModel = POINT):
+    def __init__(
+        self,
+        ids: Sequence[int],
+        states: np.ndarray,
+        controls: Sequence[ControlSource],
+        params: SPHParams,
+        robot: RobotModel = POINT,
+    ):
         order = np.argsort(np.asarray(ids), kind="stable")
         self.ids = np.asarray(ids)[order]
         self.states = np.array(states, dtype=float)[order]
@@ -107,7 +142,9 @@ class PerParticleDriver(Driver):
         current = self.states
         new = np.empty_like(current)
         i_idx, j_idx = cell_pairs(current[:, [X, Y]], current[:, FROZEN] == 0.0, params.support)
-        by_particle = np.split(j_idx[np.lexsort((j_idx, i_idx))], np.cumsum(np.bincount(i_idx, minlength=len(current)))[:-1])
+        by_particle = np.split(
+            j_idx[np.lexsort((j_idx, i_idx))], np.cumsum(np.bincount(i_idx, minlength=len(current)))[:-1]
+        )
         for k in range(len(current)):
             neighbours = current[np.sort(by_particle[k])]  # ids are sorted, so index order is id order
             control = self.controls[k].control(current[k], self.step_index)
@@ -135,16 +172,31 @@ class VectorisedDriver(Driver):
         dvx, dvy = s[i, VX] - s[j, VX], s[i, VY] - s[j, VY]
         dWdx, dWdy = kernel_gradient(dx, dy, h, params.kappa)
         pi_ij = artificial_viscosity(dx, dy, dvx, dvy, s[i, RHO], s[j, RHO], h, params.beta_pi)
-        ax, ay = momentum_terms(dWdx, dWdy, m, s[i, RHO], s[j, RHO], s[i, P], s[j, P], pi_ij,
-                                s[i, SXX], s[i, SXY], s[i, SYY], s[j, SXX], s[j, SXY], s[j, SYY])
+        ax, ay = momentum_terms(
+            dWdx,
+            dWdy,
+            m,
+            s[i, RHO],
+            s[j, RHO],
+            s[i, P],
+            s[j, P],
+            pi_ij,
+            s[i, SXX],
+            s[i, SXY],
+            s[i, SYY],
+            s[j, SXX],
+            s[j, SXY],
+            s[j, SYY],
+        )
         fx, fy = body_force(s[:, X], s[:, Y], ctl["wx"], ctl["wy"], ctl["r"], ctl["s"], ctl["alpha"])
         acc_x = np.bincount(i, ax, n) + fx + ctl["push_x"] - params.drag * s[:, VX]
         acc_y = np.bincount(i, ay, n) + fy + ctl["push_y"] - params.drag * s[:, VY]
         robot = self.robot
         if robot.kind != RobotKind.POINT:
             c = body_centres(s, robot)
-            tx, ty = contact_terms(c[i, 0] - c[j, 0], c[i, 1] - c[j, 1], CONTACT_MARGIN * 2.0 * robot.radius,
-                                   robot.v_max ** 2)
+            tx, ty = contact_terms(
+                c[i, 0] - c[j, 0], c[i, 1] - c[j, 1], CONTACT_MARGIN * 2.0 * robot.radius, robot.v_max**2
+            )
             acc_x, acc_y = acc_x + np.bincount(i, tx, n), acc_y + np.bincount(i, ty, n)
 
         new = s.copy()
@@ -153,7 +205,8 @@ class VectorisedDriver(Driver):
         if robot.kind == RobotKind.UNICYCLE:  # the drive is per robot: a loop, as the agents do it
             for k in range(n):
                 new[k, [X, Y, VX, VY, HEADING, SPEED]] = unicycle_step(
-                    s[k, X], s[k, Y], s[k, HEADING], s[k, SPEED], new[k, VX], new[k, VY], robot, params.dt)
+                    s[k, X], s[k, Y], s[k, HEADING], s[k, SPEED], new[k, VX], new[k, VY], robot, params.dt
+                )
         else:
             if robot.kind == RobotKind.HOLONOMIC:
                 for k in range(n):
@@ -163,7 +216,9 @@ class VectorisedDriver(Driver):
             new[:, Y] = s[:, Y] + params.dt * new[:, VY]
         apply_border(new, params)
 
-        rho = m * gaussian_kernel(0.0, h, params.kappa) + np.bincount(i, density_terms(np.hypot(dx, dy), m, h, params.kappa), n)
+        rho = m * gaussian_kernel(0.0, h, params.kappa) + np.bincount(
+            i, density_terms(np.hypot(dx, dy), m, h, params.kappa), n
+        )
         exx, exy, eyy = stress_rate_terms(dWdx, dWdy, -dvx, -dvy, m, s[j, RHO])
         new[:, RHO] = rho
         new[:, P] = tait_pressure(rho, ctl["beta"], params.rho0, params.gamma)

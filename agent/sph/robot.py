@@ -108,8 +108,10 @@ class RobotModel:
         """The neighbour protocol bounds a particle's step by the fluid's v_max dt (docs/protocol.md): a
         robot must not be faster than that."""
         if not self.is_point and self.top_particle_speed > v_max:
-            raise ValueError(f"robot.v_max: the robot's point can move {self.top_particle_speed:g} m/s, more than "
-                             f"the fluid's v_max {v_max:g} m/s")
+            raise ValueError(
+                f"robot.v_max: the robot's point can move {self.top_particle_speed:g} m/s, more than "
+                f"the fluid's v_max {v_max:g} m/s"
+            )
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -140,7 +142,7 @@ def wrap_angle(theta: float) -> float:
 
 
 def clip(value: float, lo: float, hi: float) -> float:
-    return lo if value < lo else hi if value > hi else value
+    return lo if value < lo else min(value, hi)
 
 
 def initial_pose(vx: float, vy: float, robot: RobotModel) -> tuple[float, float]:
@@ -174,8 +176,9 @@ def offset_tracking(ux: float, uy: float, heading: float, offset: float) -> tupl
     return ux * c + uy * s, (-ux * s + uy * c) / offset
 
 
-def unicycle_step(x: float, y: float, heading: float, speed: float, ux: float, uy: float, robot: RobotModel,
-                  dt: float) -> tuple[float, float, float, float, float, float]:
+def unicycle_step(
+    x: float, y: float, heading: float, speed: float, ux: float, uy: float, robot: RobotModel, dt: float
+) -> tuple[float, float, float, float, float, float]:
     """(x', y', vx', vy', heading', speed') of a unicycle whose tracked point is at (x, y) and should move at
     (ux, uy): the tracking law, the drive's limits, the wheels' motion (module docstring)."""
     s_cmd, w_cmd = offset_tracking(ux, uy, heading, robot.offset)
@@ -199,7 +202,7 @@ def contact_terms(dx, dy, r0: float, strength: float):
     close = (d2 < r0 * r0) & (d2 > 0.0)
     safe = np.where(close, d2, 1.0)
     q = r0 / np.sqrt(safe)
-    mag = np.where(close, strength * (q ** 12 - q ** 4) / safe, 0.0)
+    mag = np.where(close, strength * (q**12 - q**4) / safe, 0.0)
     return mag * dx, mag * dy
 
 
@@ -207,7 +210,7 @@ def contact_acceleration(own, neighbours, robot: RobotModel) -> tuple[float, flo
     """The sum of `contact_terms` on the body of `own` from the bodies of `neighbours` (state rows)."""
     c = body_centres(np.asarray(own, dtype=float)[None, :], robot)[0]
     cn = body_centres(neighbours, robot) if len(neighbours) else np.empty((0, 2))
-    tx, ty = contact_terms(c[0] - cn[:, 0], c[1] - cn[:, 1], CONTACT_MARGIN * 2.0 * robot.radius, robot.v_max ** 2)
+    tx, ty = contact_terms(c[0] - cn[:, 0], c[1] - cn[:, 1], CONTACT_MARGIN * 2.0 * robot.radius, robot.v_max**2)
     return float(np.sum(tx)), float(np.sum(ty))
 
 
@@ -228,7 +231,7 @@ def closest_pair(centres: np.ndarray) -> float:
         return math.inf
     best = math.inf
     for k in range(0, len(c), 256):  # blocks of rows: O(N^2) work in O(256 N) memory
-        d2 = ((c[k:k + 256, None, :] - c[None, :, :]) ** 2).sum(axis=2)
+        d2 = ((c[k : k + 256, None, :] - c[None, :, :]) ** 2).sum(axis=2)
         d2[np.arange(len(d2)), np.arange(k, k + len(d2))] = math.inf
         best = min(best, float(d2.min()))
     return math.sqrt(best)
@@ -240,5 +243,7 @@ def check_layout(centres: np.ndarray, robot: RobotModel) -> None:
         return
     closest = closest_pair(centres)
     if closest < 2.0 * robot.radius:
-        raise ValueError(f"robot.radius: {robot.radius:g} m does not fit the start layout (two start positions are "
-                         f"{closest:.3g} m apart, bodies need {2 * robot.radius:g} m)")
+        raise ValueError(
+            f"robot.radius: {robot.radius:g} m does not fit the start layout (two start positions are "
+            f"{closest:.3g} m apart, bodies need {2 * robot.radius:g} m)"
+        )

@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from agent.sph.params import SPHParams
-from agent.sph.particle import HEADING, SPEED, VX, VY, X, Y, Control, initial_state
+from agent.sph.particle import HEADING, SPEED, VX, VY, Control, X, Y, initial_state
 from agent.sph.robot import POINT, RobotModel, body_centres, check_layout, initial_pose
 
 
@@ -28,7 +28,7 @@ class Setup:
     params: SPHParams
     robot: RobotModel = POINT
 
-    def with_robot(self, robot: RobotModel) -> "Setup":
+    def with_robot(self, robot: RobotModel) -> Setup:
         """This set-up with `robot` bodies: their initial poses, checked against the fluid's speed limit and
         the start layout (ValueError naming the robot's key)."""
         robot.check_fits(self.params.v_max)
@@ -45,8 +45,14 @@ def lattice(n: int, columns: int, spacing: float = 1.0, origin: tuple[float, flo
     return np.stack([origin[0] + spacing * (k % columns), origin[1] + spacing * (k // columns)], axis=1).astype(float)
 
 
-def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float | None = None, rows: int = 10,
-              speed: float = 1.0, params: SPHParams | None = None) -> Setup:
+def branching(
+    n: int = 200,
+    beta_middle: float = 20.0,
+    beta_edge: float | None = None,
+    rows: int = 10,
+    speed: float = 1.0,
+    params: SPHParams | None = None,
+) -> Setup:
     """Stiffness-only branching (thesis §4.6): a block moving along +x, middle band stiffer than edges.
 
     The particles fill a block `rows` high, row by row; the middle 40% of the rows form the middle band.
@@ -60,7 +66,7 @@ def branching(n: int = 200, beta_middle: float = 20.0, beta_edge: float | None =
     beta_edge = params.beta if beta_edge is None else beta_edge
     columns = max(1, int(np.ceil(n / rows)))
     pos = lattice(n, columns)
-    row = (np.arange(n) // columns)
+    row = np.arange(n) // columns
     nrows = int(row.max()) + 1
     lo, hi = int(round(nrows * 0.3)), int(round(nrows * 0.7))
     middle = (row >= lo) & (row < hi)

@@ -42,8 +42,15 @@ def ann_force(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> GestureCommand:
     if obs.kind == "body":  # no finger skeleton: fall back to the PCA template of the pose
         cmd = pca_command(obs, transform, n_agents, seq)
-        return GestureCommand(seq=cmd.seq, gesture=cmd.gesture, n_agents=cmd.n_agents, classes=cmd.classes,
-                              beta=cmd.beta, mu=cmd.mu, extra={**cmd.extra, "controller": "ann(pose template)"})
+        return GestureCommand(
+            seq=cmd.seq,
+            gesture=cmd.gesture,
+            n_agents=cmd.n_agents,
+            classes=cmd.classes,
+            beta=cmd.beta,
+            mu=cmd.mu,
+            extra={**cmd.extra, "controller": "ann(pose template)"},
+        )
     fv, (f_along, f_split) = ann_force(obs.mask)
     (pu, pv), radius, up = _hand_frame(obs.mask)
 
@@ -53,8 +60,11 @@ def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> G
     alpha = float(np.clip(ALPHA_PER_FORCE * f_along, 0.5, 10.0))
     centre = transform.to_domain(np.array([pu, pv]))
     start_r = max(1.5, math.sqrt(n_agents / math.pi) + 0.5)
-    palm = ParticleClass("palm", 0.4, (Waypoint(float(centre[0]), float(centre[1]), r=max(1.0, radius * transform.scale),
-                                                s=2.0, alpha=alpha),))
+    palm = ParticleClass(
+        "palm",
+        0.4,
+        (Waypoint(float(centre[0]), float(centre[1]), r=max(1.0, radius * transform.scale), s=2.0, alpha=alpha),),
+    )
     angles = [0.0] if f_split < SPLIT_MIN else [-math.atan2(f_split, f_along), math.atan2(f_split, f_along)]
     names = ["finger"] if len(angles) == 1 else ["finger_left", "finger_right"]
     classes = [palm]
@@ -65,10 +75,28 @@ def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> G
         for frac, beta in ((0.55, BETA_FINGER), (0.85, None)):
             x, y = transform.to_domain(np.array([pu, pv]) + frac * length * d)
             last = frac == 0.85
-            route.append(Waypoint(float(x), float(y), r=(0.6 * radius * transform.scale if last else 1.2), s=2.0,
-                                  alpha=alpha, beta=beta))
+            route.append(
+                Waypoint(
+                    float(x),
+                    float(y),
+                    r=(0.6 * radius * transform.scale if last else 1.2),
+                    s=2.0,
+                    alpha=alpha,
+                    beta=beta,
+                )
+            )
         classes.append(ParticleClass(name, 0.6 / len(angles), tuple(route)))
-    extra = {"controller": "ann", "features": [round(float(v), 4) for v in fv],
-             "force": [round(float(f_along), 4), round(float(f_split), 4)]}
-    return GestureCommand(seq=seq, gesture="two_branches" if len(angles) == 2 else "one_branch", n_agents=int(n_agents),
-                          classes=tuple(classes), beta=2.0, mu=0.2, extra=extra)
+    extra = {
+        "controller": "ann",
+        "features": [round(float(v), 4) for v in fv],
+        "force": [round(float(f_along), 4), round(float(f_split), 4)],
+    }
+    return GestureCommand(
+        seq=seq,
+        gesture="two_branches" if len(angles) == 2 else "one_branch",
+        n_agents=int(n_agents),
+        classes=tuple(classes),
+        beta=2.0,
+        mu=0.2,
+        extra=extra,
+    )

@@ -148,5 +148,7 @@ def fidelity(target_mask: np.ndarray, transform: ImageToDomain, positions: np.nd
 
 def format_fidelity(f: Fidelity) -> str:
     """The lines `fidelity_iou=`, `fidelity_inside=`, `fidelity_coverage=`, `nn_cv=` (no trailing newline)."""
-    return (f"fidelity_iou={f.iou:.4f}\nfidelity_inside={f.inside:.4f}\nfidelity_coverage={f.coverage:.4f}"
-            f"\nnn_cv={f.nn_cv:.4f}")
+    return (
+        f"fidelity_iou={f.iou:.4f}\nfidelity_inside={f.inside:.4f}\nfidelity_coverage={f.coverage:.4f}"
+        f"\nnn_cv={f.nn_cv:.4f}"
+    )

@@ -24,9 +24,19 @@ import math
 import cv2
 import numpy as np
 
+from agent.protocol.command import (
+    MAX_RINGS,
+    MAX_VERTICES,
+    MAX_ZONES,
+    Fill,
+    GestureCommand,
+    ParticleClass,
+    Waypoint,
+    Zone,
+    edges_cross,
+)
 from agent.sph.kernel import gaussian_kernel
 from agent.sph.params import SPHParams
-from agent.protocol.command import MAX_RINGS, MAX_VERTICES, MAX_ZONES, Fill, GestureCommand, ParticleClass, Waypoint, Zone, edges_cross
 from coordinator.control.geometry import ImageToDomain
 
 AREA_PER_PARTICLE = 1.7  # m^2 of silhouette per particle
@@ -34,13 +44,16 @@ COMPRESSION = 0.85  # rest density / the density the area calls for
 THIN_PART = 0.5  # erode a thin part by at most this fraction of its half-width
 ALPHA, RAMP = 80.0, 0.2  # the wall: 80 1/s^2 over 0.2 m (at most 16 m/s^2 back into the shape)
 BETA, MU = 2.0, 0.2
-FINGER_BETA, FINGER_MU = 5.0, 1.0  # the fingers' material (thesis: beta 2 -> 50 past the palm; 50 measured worse, docs/fill.md)
+FINGER_BETA, FINGER_MU = (
+    5.0,
+    1.0,
+)  # the fingers' material (thesis: beta 2 -> 50 past the palm; 50 measured worse, docs/fill.md)
 ARM_BETA, ARM_MU = 20.0, 1.0  # the arms' material (thesis: beta 2 -> 20 past the shoulders, §6.3)
 ZONE_GROW = 1.2  # a moment ellipse (4 sigma) stops short of a part's ends
 INITIAL_SPACING = 1.2  # m, the starting lattice at the palm / torso centre
 MIN_PIXELS = 20  # a smaller silhouette does not say what shape it is (a coarse one is fine: a 64 px clip's
-                 # person of ~200 pixels still outlines 300 particles; where a spacing is under a pixel the
-                 # vessel is the whole silhouette)
+# person of ~200 pixels still outlines 300 particles; where a spacing is under a pixel the
+# vessel is the whole silhouette)
 MIN_FILLABLE = 0.25  # the vessel must keep at least this share of the silhouette (else: too thin / fragmented)
 
 
@@ -71,17 +84,22 @@ def vessel(mask: np.ndarray, erode_px: float) -> np.ndarray:
     return dist > np.minimum(erode_px, THIN_PART * thickness)
 
 
-def shape_rings(mask: np.ndarray, transform: ImageToDomain, n_agents: int) -> tuple[tuple[tuple[float, float], ...], ...]:
+def shape_rings(
+    mask: np.ndarray, transform: ImageToDomain, n_agents: int
+) -> tuple[tuple[tuple[float, float], ...], ...]:
     """The vessel as polygons in domain metres (outer boundaries and holes), at most MAX_VERTICES vertices."""
     area_px = int(np.count_nonzero(mask))
     if area_px < MIN_PIXELS:
-        raise ShapeError(f"the silhouette has {area_px} pixels: too small to say what shape to fill "
-                         f"(at least {MIN_PIXELS})")
+        raise ShapeError(
+            f"the silhouette has {area_px} pixels: too small to say what shape to fill (at least {MIN_PIXELS})"
+        )
     erode_px = 0.5 * spacing() / transform.scale
     v = vessel(mask, erode_px).astype(np.uint8)
     if np.count_nonzero(v) < MIN_FILLABLE * area_px:
-        raise ShapeError(f"the silhouette is too thin or fragmented for {n_agents} particles: only "
-                         f"{np.count_nonzero(v) / area_px:.0%} of it is wider than a particle spacing")
+        raise ShapeError(
+            f"the silhouette is too thin or fragmented for {n_agents} particles: only "
+            f"{np.count_nonzero(v) / area_px:.0%} of it is wider than a particle spacing"
+        )
     contours, _ = cv2.findContours(v, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_SIMPLE)
     # Parts smaller than a tenth of a particle's area are noise, not something to fill.
     min_px = 0.1 * AREA_PER_PARTICLE / transform.scale**2
@@ -121,8 +139,14 @@ def material_zones(ellipses, transform: ImageToDomain, beta: float, mu: float) -
     return tuple(zones)
 
 
-def fill_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, seq: int = 1,
-                 gesture: str = "fill", zones: tuple[Zone, ...] = ()) -> GestureCommand:
+def fill_command(
+    mask: np.ndarray,
+    transform: ImageToDomain,
+    n_agents: int,
+    seq: int = 1,
+    gesture: str = "fill",
+    zones: tuple[Zone, ...] = (),
+) -> GestureCommand:
     """The command that makes `n_agents` particles fill `mask` (seen through `transform`); `zones` are
     the parts where the fluid is another material (`material_zones`)."""
     rings = shape_rings(mask, transform, n_agents)

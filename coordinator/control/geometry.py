@@ -23,7 +23,9 @@ class ImageToDomain:
     y0: float  # domain y of pixel row 0
 
     @classmethod
-    def fit(cls, image_shape: tuple[int, int], domain: tuple[float, float, float, float], margin: float = 0.05) -> "ImageToDomain":
+    def fit(
+        cls, image_shape: tuple[int, int], domain: tuple[float, float, float, float], margin: float = 0.05
+    ) -> ImageToDomain:
         """Fit an image of shape (rows, cols) centred into domain (xmin, xmax, ymin, ymax), keeping aspect."""
         rows, cols = image_shape[:2]
         xmin, xmax, ymin, ymax = domain

@@ -7,23 +7,37 @@ from enum import StrEnum
 
 import numpy as np
 
+from agent.protocol.command import GestureCommand
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
-from agent.protocol.command import GestureCommand
-from coordinator.control.fill import (ARM_BETA, ARM_MU, AREA_PER_PARTICLE as FILL_AREA, FINGER_BETA, FINGER_MU,
-                                      INITIAL_SPACING as FILL_SPACING, fill_command, material_zones, rest_density)
-from perception.ellipses import fit_ellipse, hand_regions
-from coordinator.control.region import (
-    AREA_PER_PARTICLE, body_region_command, centre_px, domain_for, fit_transform, region_command,
-)
-from coordinator.control.geometry import ImageToDomain
-from perception.segmentation import hand_mask
 from coordinator.control.ann import ann_command
+from coordinator.control.fill import AREA_PER_PARTICLE as FILL_AREA
+from coordinator.control.fill import (
+    ARM_BETA,
+    ARM_MU,
+    FINGER_BETA,
+    FINGER_MU,
+    fill_command,
+    material_zones,
+    rest_density,
+)
+from coordinator.control.fill import INITIAL_SPACING as FILL_SPACING
+from coordinator.control.geometry import ImageToDomain
 from coordinator.control.observe import Observation, hand_label, is_clip, observe
 from coordinator.control.pca import pca_command
+from coordinator.control.region import (
+    AREA_PER_PARTICLE,
+    body_region_command,
+    centre_px,
+    domain_for,
+    fit_transform,
+    region_command,
+)
 from coordinator.control.route import class_of
+from perception.ellipses import fit_ellipse, hand_regions
 from perception.io import InputError, load_frames
+from perception.segmentation import hand_mask
 
 DEFAULT_STEPS = 700
 
@@ -47,8 +61,6 @@ class Imitation:
     command: GestureCommand
     setup: Setup
     observation: object = None
-
-
 
 
 class Controller(StrEnum):
@@ -89,11 +101,14 @@ def fill_zones(obs, transform: ImageToDomain):
     return material_zones(fingers, transform, FINGER_BETA, FINGER_MU)
 
 
-def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1) -> GestureCommand:
+def build_command(
+    obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1
+) -> GestureCommand:
     """The chosen controller's command for one observation (coordinator.control.observe.Observation)."""
     if controller == "fill":
-        return fill_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64],
-                            zones=fill_zones(obs, transform))
+        return fill_command(
+            obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64], zones=fill_zones(obs, transform)
+        )
     if controller == "region":
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
@@ -105,8 +120,9 @@ def build_command(obs, transform: ImageToDomain, n_agents: int, controller: str 
     raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
 
 
-def prepare_observation(obs, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER,
-                        transform: ImageToDomain | None = None) -> Imitation:
+def prepare_observation(
+    obs, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER, transform: ImageToDomain | None = None
+) -> Imitation:
     """Transform (silhouette area = what n_agents particles cover), SPH parameters, command, and the initial
     swarm: a compact lattice (spacing 1 m) at the command's common first waypoint (palm/torso centre)."""
     mask = obs.mask
@@ -148,8 +164,9 @@ def observations_for(path, frame: int | None = None):
     return frames, observe(path, frames), (frame or 0)
 
 
-def prepare_input(path, n_agents: int, controller: str = DEFAULT_CONTROLLER, frame: int | None = None,
-                  sequence: bool = False) -> Imitation:
+def prepare_input(
+    path, n_agents: int, controller: str = DEFAULT_CONTROLLER, frame: int | None = None, sequence: bool = False
+) -> Imitation:
     """An image, folder or clip -> the set-up that imitates one of its frames (default the first).
 
     With `sequence` (a gesture sequence, thesis ch. 5) the swarm starts as for the first frame and the

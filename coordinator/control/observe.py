@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.io import is_clip
 from perception.ellipses import fit_ellipse
+from perception.io import is_clip
 from perception.segmentation import hand_mask, person_regions
 from perception.skeleton import NAMES, feature_vector
 
@@ -29,7 +29,6 @@ class Observation:
     frame: np.ndarray | None = None  # the BGR picture (for the eigen classifier and the recording)
     parts: dict = field(default_factory=dict)  # body: {"torso", "left_arm", "right_arm"} bool masks (or absent)
     index: int = 0
-
 
 
 SIDE_MAX_DEG = 35.0  # an arm ellipse within this of horizontal is held sideways (labelled wave2: <= 31)
@@ -81,8 +80,11 @@ def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
                 for m in (r.torso, r.head):
                     if m is not None:
                         torso |= m
-            parts = {k: v for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
-                     if v is not None and v.any()}
+            parts = {
+                k: v
+                for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
+                if v is not None and v.any()
+            }
             out.append(Observation("body", r.silhouette.astype(bool), body_label(parts, head_row), f, parts, i))
         return out
 

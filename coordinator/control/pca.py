@@ -30,23 +30,44 @@ PALM = ("palm", 0.4, [(0.0, 0.0)], 1.1, None)
 HAND_TEMPLATES = {
     "horizontal_pointing": [PALM, ("finger", 0.6, [(0.0, 1.4), (0.0, 2.4), (0.0, 3.2)], 0.9, F)],
     "pointing_at_angle": [PALM, ("finger", 0.6, [(0.0, 1.4), (0.0, 2.4), (0.0, 3.2)], 0.9, F)],
-    "v_separation": [PALM, ("finger_left", 0.3, [(-0.3, 1.4), (-0.9, 2.4), (-1.3, 3.2)], 0.8, F),
-                     ("finger_right", 0.3, [(0.3, 1.4), (0.9, 2.4), (1.3, 3.2)], 0.8, F)],
-    "pinching": [PALM, ("thumb", 0.2, [(-1.0, 1.0), (-1.2, 2.0)], 0.8, F),
-                 ("index", 0.2, [(-0.2, 1.4), (-0.8, 2.4)], 0.8, F),
-                 ("fingers", 0.2, [(0.6, 1.4), (1.0, 2.6)], 0.9, F)],
-    "cylindrical_hook": [PALM, ("hook_left", 0.2, [(-1.0, 1.0), (-1.1, 2.0)], 0.8, F),
-                         ("hook_top", 0.2, [(0.0, 1.4), (0.0, 2.4)], 0.8, F),
-                         ("hook_right", 0.2, [(1.0, 1.0), (1.1, 2.0)], 0.8, F)],
-    "open_hand": [PALM] + [(f"finger{i}", 0.12, [(0.5 * x, 1.4), (1.1 * x, 2.8)], 0.8, F)
-                           for i, x in enumerate((-1.4, -0.7, 0.0, 0.7, 1.4))],
+    "v_separation": [
+        PALM,
+        ("finger_left", 0.3, [(-0.3, 1.4), (-0.9, 2.4), (-1.3, 3.2)], 0.8, F),
+        ("finger_right", 0.3, [(0.3, 1.4), (0.9, 2.4), (1.3, 3.2)], 0.8, F),
+    ],
+    "pinching": [
+        PALM,
+        ("thumb", 0.2, [(-1.0, 1.0), (-1.2, 2.0)], 0.8, F),
+        ("index", 0.2, [(-0.2, 1.4), (-0.8, 2.4)], 0.8, F),
+        ("fingers", 0.2, [(0.6, 1.4), (1.0, 2.6)], 0.9, F),
+    ],
+    "cylindrical_hook": [
+        PALM,
+        ("hook_left", 0.2, [(-1.0, 1.0), (-1.1, 2.0)], 0.8, F),
+        ("hook_top", 0.2, [(0.0, 1.4), (0.0, 2.4)], 0.8, F),
+        ("hook_right", 0.2, [(1.0, 1.0), (1.1, 2.0)], 0.8, F),
+    ],
+    "open_hand": [PALM]
+    + [
+        (f"finger{i}", 0.12, [(0.5 * x, 1.4), (1.1 * x, 2.8)], 0.8, F)
+        for i, x in enumerate((-1.4, -0.7, 0.0, 0.7, 1.4))
+    ],
 }
 
 # sign-language digit -> preshape (0: fingers curled round an O; 1: one finger; 2: V; 3-5: spread fingers;
 # 6-9: the thumb touching one finger).
-DIGIT_TEMPLATE = {"0": "cylindrical_hook", "1": "pointing_at_angle", "2": "v_separation", "3": "open_hand",
-                  "4": "open_hand", "5": "open_hand", "6": "pinching", "7": "pinching", "8": "pinching",
-                  "9": "pinching"}
+DIGIT_TEMPLATE = {
+    "0": "cylindrical_hook",
+    "1": "pointing_at_angle",
+    "2": "v_separation",
+    "3": "open_hand",
+    "4": "open_hand",
+    "5": "open_hand",
+    "6": "pinching",
+    "7": "pinching",
+    "8": "pinching",
+    "9": "pinching",
+}
 
 TORSO = ("torso", 0.45, [(0.0, 0.0)], 1.0, None)
 HEAD = ("head", 0.1, [(0.0, 1.0), (0.0, 1.5)], 0.5, None)
@@ -54,9 +75,11 @@ HEAD = ("head", 0.1, [(0.0, 1.0), (0.0, 1.5)], 0.5, None)
 
 def _arm(side: str, pose: str, share: float = 0.225):
     s = -1.0 if side == "left" else 1.0
-    pts = {"side": [(s * 0.9, 0.6), (s * 2.2, 0.6), (s * 3.2, 0.6)],
-           "up": [(s * 0.9, 0.8), (s * 1.2, 2.0), (s * 1.4, 3.0)],
-           "down": [(s * 0.9, 0.4), (s * 1.3, -0.6), (s * 1.5, -1.4)]}[pose]
+    pts = {
+        "side": [(s * 0.9, 0.6), (s * 2.2, 0.6), (s * 3.2, 0.6)],
+        "up": [(s * 0.9, 0.8), (s * 1.2, 2.0), (s * 1.4, 3.0)],
+        "down": [(s * 0.9, 0.4), (s * 1.3, -0.6), (s * 1.5, -1.4)],
+    }[pose]
     return (f"{side}_arm", share, pts, 0.8, A)
 
 
@@ -66,8 +89,12 @@ BODY_TEMPLATES = {
     "one_arm_up": [TORSO, HEAD, _arm("left", "up"), _arm("right", "down")],
     "one_arm_down": [TORSO, HEAD, _arm("left", "down"), _arm("right", "side")],
     "arms_down": [TORSO, HEAD, _arm("left", "down"), _arm("right", "down")],
-    "bending": [("torso", 0.5, [(0.0, 0.0), (0.8, -0.3)], 1.0, None), ("head", 0.1, [(1.5, -0.5)], 0.5, None),
-                ("left_arm", 0.2, [(1.2, -0.8), (1.6, -1.8)], 0.7, A), ("right_arm", 0.2, [(1.4, -0.8), (1.9, -1.8)], 0.7, A)],
+    "bending": [
+        ("torso", 0.5, [(0.0, 0.0), (0.8, -0.3)], 1.0, None),
+        ("head", 0.1, [(1.5, -0.5)], 0.5, None),
+        ("left_arm", 0.2, [(1.2, -0.8), (1.6, -1.8)], 0.7, A),
+        ("right_arm", 0.2, [(1.4, -0.8), (1.9, -1.8)], 0.7, A),
+    ],
 }
 
 
@@ -115,8 +142,16 @@ def _place(template, origin_px, unit_px: float, up_px: np.ndarray, transform: Im
             x, y = transform.to_domain(uv)
             last = i == len(pts) - 1
             r = r_last * unit_px * transform.scale if last else max(1.2, 0.5 * unit_px * transform.scale)
-            wps.append(Waypoint(float(x), float(y), r=float(r), s=2.0, alpha=alpha,
-                                beta=beta if (beta is not None and i == 0 and len(pts) > 1) else None))
+            wps.append(
+                Waypoint(
+                    float(x),
+                    float(y),
+                    r=float(r),
+                    s=2.0,
+                    alpha=alpha,
+                    beta=beta if (beta is not None and i == 0 and len(pts) > 1) else None,
+                )
+            )
         classes.append(ParticleClass(name, float(share), tuple(wps)))
     return tuple(classes)
 

@@ -49,9 +49,16 @@ def regions(mask: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     return centres, counts
 
 
-def region_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, seq: int = 1,
-                   gesture: str = "regions", k: int | None = None, beta_far: float | None = None,
-                   alpha: float = 4.0) -> GestureCommand:
+def region_command(
+    mask: np.ndarray,
+    transform: ImageToDomain,
+    n_agents: int,
+    seq: int = 1,
+    gesture: str = "regions",
+    k: int | None = None,
+    beta_far: float | None = None,
+    alpha: float = 4.0,
+) -> GestureCommand:
     """K = N/3 regions (about 3 particles each); gain alpha = 4 1/s^2 (a sweep of {1.5, 4} favoured the
     stronger pull). beta_far, if given, is the stiffness the outer regions switch to on arrival (the
     thesis' branching; off by default because it lowered the fill in our sweep)."""
@@ -68,15 +75,22 @@ def region_command(mask: np.ndarray, transform: ImageToDomain, n_agents: int, se
     start_radius = max(1.5, math.sqrt(n_agents / math.pi) + 0.5)
     classes = []
     for rank, j in enumerate(order):
-        area_m2 = counts[j] * transform.scale ** 2
+        area_m2 = counts[j] * transform.scale**2
         eq_radius = math.sqrt(area_m2 / math.pi)
         first = Waypoint(float(centre[0]), float(centre[1]), r=start_radius, s=2.0, alpha=alpha)
-        last = Waypoint(float(cents_m[j, 0]), float(cents_m[j, 1]), r=0.5 * eq_radius, s=2.0, alpha=alpha,
-                        beta=beta_far if (beta_far is not None and far[j] > reach) else None)
+        last = Waypoint(
+            float(cents_m[j, 0]),
+            float(cents_m[j, 1]),
+            r=0.5 * eq_radius,
+            s=2.0,
+            alpha=alpha,
+            beta=beta_far if (beta_far is not None and far[j] > reach) else None,
+        )
         classes.append(ParticleClass(f"region{rank}", float(counts[j]), (first, last)))
     extra = {"controller": "region", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
-    return GestureCommand(seq=seq, gesture=gesture, n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2,
-                          extra=extra)
+    return GestureCommand(
+        seq=seq, gesture=gesture, n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2, extra=extra
+    )
 
 
 def _region_labels(mask: np.ndarray, k: int):
@@ -94,9 +108,17 @@ def _region_labels(mask: np.ndarray, k: int):
 ARM_PARTS = ("left_arm", "right_arm")
 
 
-def body_region_command(mask: np.ndarray, parts: dict, transform: ImageToDomain, n_agents: int, seq: int = 1,
-                        gesture: str = "body", k: int | None = None, alpha: float = 4.0,
-                        beta_arm: float = 20.0) -> GestureCommand:
+def body_region_command(
+    mask: np.ndarray,
+    parts: dict,
+    transform: ImageToDomain,
+    n_agents: int,
+    seq: int = 1,
+    gesture: str = "body",
+    k: int | None = None,
+    alpha: float = 4.0,
+    beta_arm: float = 20.0,
+) -> GestureCommand:
     """A person's silhouette (thesis ch. 6, body poses): the same fill by K compact regions, each region
     belonging to the part (torso, left arm, right arm) most of its pixels lie in. Every route starts at
     the torso centre; an arm region's route then passes the shoulder (the arm pixel nearest the torso
@@ -133,7 +155,7 @@ def body_region_command(mask: np.ndarray, parts: dict, transform: ImageToDomain,
     counter: dict[str, int] = {}
     for j in np.argsort(far, kind="stable"):
         part = owner[j]
-        eq_radius = math.sqrt(counts[j] * transform.scale ** 2 / math.pi)
+        eq_radius = math.sqrt(counts[j] * transform.scale**2 / math.pi)
         route = [Waypoint(float(centre[0]), float(centre[1]), r=start_radius, s=2.0, alpha=alpha)]
         if part in shoulders:
             sx, sy = shoulders[part]
@@ -143,5 +165,6 @@ def body_region_command(mask: np.ndarray, parts: dict, transform: ImageToDomain,
         counter[part] = counter.get(part, 0) + 1
         classes.append(ParticleClass(name, float(counts[j]), tuple(route)))
     extra = {"controller": "region", "kind": "body", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
-    return GestureCommand(seq=seq, gesture=gesture[:64], n_agents=int(n_agents), classes=tuple(classes), beta=2.0,
-                          mu=0.2, extra=extra)
+    return GestureCommand(
+        seq=seq, gesture=gesture[:64], n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2, extra=extra
+    )

@@ -12,8 +12,8 @@ import os
 import numpy as np
 
 from agent.fill import inside, nearest_point, zone_material
-from agent.sph.particle import X, Y, Control
 from agent.protocol.command import CommandRejected, decode
+from agent.sph.particle import Control, X, Y
 
 
 def class_counts(n: int, shares) -> list[int]:
@@ -162,7 +162,10 @@ class CommandFollower:
         return self.follower.control(state, step)
 
     def report(self) -> dict:
-        return {"commands_accepted": self.accepted, "particle_class": self.particle_class,
-                "waypoint_index": self.follower.index if self.follower else -1,
-                "command_seq": self.command.seq if self.command else -1,
-                "first_command_at": self.first_command_at}
+        return {
+            "commands_accepted": self.accepted,
+            "particle_class": self.particle_class,
+            "waypoint_index": self.follower.index if self.follower else -1,
+            "command_seq": self.command.seq if self.command else -1,
+            "first_command_at": self.first_command_at,
+        }

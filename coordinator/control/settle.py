@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.sph.particle import VX, VY, X, Y
 from agent.protocol.wire import decode_state
+from agent.sph.particle import VX, VY, X, Y
 from coordinator.control.fidelity import fidelity
 
 
@@ -45,8 +45,9 @@ class SettleWatch:
     """A thread that ends `launcher`'s run when the formation (seen against `mask` through `transform`)
     has settled. `settled_step`/`settled_wall_seconds` say when (None: it ran to the cap)."""
 
-    def __init__(self, launcher, mask: np.ndarray, transform, dt: float, rule: SettleRule = SettleRule(),
-                 hold=lambda: False):
+    def __init__(
+        self, launcher, mask: np.ndarray, transform, dt: float, rule: SettleRule = SettleRule(), hold=lambda: False
+    ):
         """`hold()` true: not settled whatever the figures (a robustness scenario's failures still to come)."""
         self.launcher, self.mask, self.transform, self.dt, self.rule = launcher, mask, transform, dt, rule
         self.hold = hold

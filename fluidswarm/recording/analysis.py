@@ -49,5 +49,6 @@ def series(run: Run) -> Series:
             d, _ = cKDTree(f.positions).query(f.positions, k=2)
             nn[k] = d[:, 1].mean()
             pair[k] = pdist(f.positions).mean()
-    return Series(steps=run.steps, t=run.times, speed_by_class=speed, pressure=pressure,
-                  nn_distance=nn, pair_distance=pair)
+    return Series(
+        steps=run.steps, t=run.times, speed_by_class=speed, pressure=pressure, nn_distance=nn, pair_distance=pair
+    )

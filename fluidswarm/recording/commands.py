@@ -12,17 +12,25 @@ from fluidswarm.recording.reader import completeness, finished, load_run, salvag
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "replay", help="render a recorded run (PNGs, GIF, plots, fidelity) or --check it",
+        "replay",
+        help="render a recorded run (PNGs, GIF, plots, fidelity) or --check it",
         description="Render a recorded run: PNG snapshots, an animated GIF, the thesis' plots (average "
-                    "speed per class, average pressure, average inter-particle distance) and the fidelity "
-                    "score. With --check, verify that every alive agent's state is recorded at every step.")
+        "speed per class, average pressure, average inter-particle distance) and the fidelity "
+        "score. With --check, verify that every alive agent's state is recorded at every step.",
+    )
     p.add_argument("run", metavar="RUN.mcap", help="the recording")
     p.add_argument("--out", metavar="DIR", help="output directory (default: RUN_replay/ beside the file)")
-    p.add_argument("--check", action="store_true",
-                   help="print complete=, steps=, missing_states= (and the recorded fidelity, if any); exit 0 if complete else 1")
-    p.add_argument("--recover", action="store_true",
-                   help="a file whose writer died (no footer): rewrite it finished with every whole record it "
-                        "holds; print what was kept and dropped, and complete=, steps=, missing_states=")
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="print complete=, steps=, missing_states= (and the recorded fidelity, if any); exit 0 if complete else 1",
+    )
+    p.add_argument(
+        "--recover",
+        action="store_true",
+        help="a file whose writer died (no footer): rewrite it finished with every whole record it "
+        "holds; print what was kept and dropped, and complete=, steps=, missing_states=",
+    )
     p.add_argument("--max-frames", type=int, default=120, metavar="N", help="GIF frames at most (default 120)")
     p.add_argument("--fps", type=float, default=10.0, help="GIF frame rate (default 10)")
     p.set_defaults(func=_main)

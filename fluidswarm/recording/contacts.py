@@ -43,5 +43,9 @@ class ContactCounter:
 
     def figures(self) -> dict:
         """The metadata record `robots` of the MCAP (fluidswarm/recording/writer.py)."""
-        return {"robot": self.robot.kind, "radius_m": self.robot.radius, "collisions": self.collisions,
-                "min_separation_m": self.min_separation_m}
+        return {
+            "robot": self.robot.kind,
+            "radius_m": self.robot.radius,
+            "collisions": self.collisions,
+            "min_separation_m": self.min_separation_m,
+        }

@@ -79,8 +79,14 @@ def check_free(address: LiveAddress) -> None:
 
 def add_live_argument(parser) -> None:
     """`--live [HOST:PORT]` on a command that starts the recorder."""
-    parser.add_argument("--live", nargs="?", const=DEFAULT_ADDRESS, default=None, metavar="HOST:PORT",
-                        help=f"stream the run to Foxglove as it happens (WebSocket server; default {DEFAULT_ADDRESS})")
+    parser.add_argument(
+        "--live",
+        nargs="?",
+        const=DEFAULT_ADDRESS,
+        default=None,
+        metavar="HOST:PORT",
+        help=f"stream the run to Foxglove as it happens (WebSocket server; default {DEFAULT_ADDRESS})",
+    )
 
 
 def live_from_args(args) -> str:
@@ -108,14 +114,20 @@ class LiveServer:
         self._subscribed = threading.Event()
         self._closed = threading.Event()
         # Raises RuntimeError ("Failed to bind port ...") if the address is taken.
-        self.server = foxglove.start_server(name=f"{SERVER_NAME} {run}", host=address.host, port=address.port,
-                                            context=self._context, message_backlog_size=BACKLOG,
-                                            server_listener=_Listener(self._subscribed))
+        self.server = foxglove.start_server(
+            name=f"{SERVER_NAME} {run}",
+            host=address.host,
+            port=address.port,
+            context=self._context,
+            message_backlog_size=BACKLOG,
+            server_listener=_Listener(self._subscribed),
+        )
         self._channels = {}
         for leaf, name in sc.TOPIC_SCHEMAS.items():
             schema = foxglove.Schema(name=name, encoding=sc.SCHEMA_ENCODING, data=sc.schema_bytes(name))
-            self._channels[leaf] = foxglove.Channel(sc.topic(run, leaf), schema=schema,
-                                                    message_encoding=sc.MESSAGE_ENCODING, context=self._context)
+            self._channels[leaf] = foxglove.Channel(
+                sc.topic(run, leaf), schema=schema, message_encoding=sc.MESSAGE_ENCODING, context=self._context
+            )
         self.dropped = 0  # messages the SDK refused (never raised into the recorder)
         threading.Thread(target=self._resend, name="live-latched", daemon=True).start()
 

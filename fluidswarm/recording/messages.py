@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import base64
 import math
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import cv2
 import numpy as np
@@ -36,8 +36,14 @@ def _rows(name: str, value, n: int, width: int | None = None) -> np.ndarray:
 
 
 def _entity(stamp: dict, entity_id: str, **primitives) -> dict:
-    entity = {"timestamp": stamp, "frame_id": FRAME_ID, "id": entity_id, "lifetime": {"sec": 0, "nsec": 0},
-              "frame_locked": False, "metadata": []}
+    entity = {
+        "timestamp": stamp,
+        "frame_id": FRAME_ID,
+        "id": entity_id,
+        "lifetime": {"sec": 0, "nsec": 0},
+        "frame_locked": False,
+        "metadata": [],
+    }
     for key in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models"):
         entity[key] = primitives.get(key, [])
     return entity
@@ -48,12 +54,19 @@ def _ellipse_line(x: float, y: float, major: float, minor: float, angle_deg: flo
     c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
     ex, ey = major / 2 * np.cos(a), minor / 2 * np.sin(a)
     pts = [_point(x + c * u - s * v, y + s * u + c * v) for u, v in zip(ex, ey)]
-    return {"type": 1, "pose": IDENTITY_POSE, "thickness": 2.0, "scale_invariant": True, "points": pts,
-            "color": _color((214, 39, 40), 1.0), "colors": [], "indices": []}
+    return {
+        "type": 1,
+        "pose": IDENTITY_POSE,
+        "thickness": 2.0,
+        "scale_invariant": True,
+        "points": pts,
+        "color": _color((214, 39, 40), 1.0),
+        "colors": [],
+        "indices": [],
+    }
 
 
-def state_cloud(step: int, t: float, ids, positions, velocities, density, pressure, class_ids,
-                alive=None) -> dict:
+def state_cloud(step: int, t: float, ids, positions, velocities, density, pressure, class_ids, alive=None) -> dict:
     """All particle states of one step as ONE `foxglove.PointCloud` (topic `fluidswarm/<run>/state`).
 
     Arrays have one row per particle; `alive` (bool, optional) selects the rows to record, otherwise
@@ -88,16 +101,18 @@ def state_cloud(step: int, t: float, ids, positions, velocities, density, pressu
     rgb = sc.class_colour(cls)
     packed["red"], packed["green"], packed["blue"], packed["alpha"] = rgb[:, 0], rgb[:, 1], rgb[:, 2], 255
     payload = {
-        "timestamp": sc.stamp(t), "frame_id": FRAME_ID, "pose": IDENTITY_POSE,
-        "point_stride": sc.PARTICLE_DTYPE.itemsize, "fields": sc.packed_fields(sc.PARTICLE_DTYPE),
+        "timestamp": sc.stamp(t),
+        "frame_id": FRAME_ID,
+        "pose": IDENTITY_POSE,
+        "point_stride": sc.PARTICLE_DTYPE.itemsize,
+        "fields": sc.packed_fields(sc.PARTICLE_DTYPE),
         "data": base64.b64encode(packed.tobytes()).decode("ascii"),
         sc.EXTRA_KEY: {"step": step, "count": int(len(ids))},
     }
     return payload
 
 
-def scene_update(t: float, waypoints: Iterable[Sequence[float]] = (),
-                ellipses: Iterable[Sequence[float]] = ()) -> dict:
+def scene_update(t: float, waypoints: Iterable[Sequence[float]] = (), ellipses: Iterable[Sequence[float]] = ()) -> dict:
     """Waypoints (x, y, r) as flat discs and ellipses (x, y, major, minor, angle_deg; full axis
     lengths, angle counter-clockwise from +x) as outlines: one `foxglove.SceneUpdate` on
     `fluidswarm/<run>/scene` replacing the previous waypoints and ellipses."""
@@ -108,11 +123,16 @@ def scene_update(t: float, waypoints: Iterable[Sequence[float]] = (),
     if any(len(e) != 5 or e[2] < 0 or e[3] < 0 for e in els):
         raise ValueError("ellipses must be (x, y, major, minor, angle_deg) with non-negative axes")
     stamp = sc.stamp(t)
-    discs = [{
-        "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
-        "size": {"x": 2 * r, "y": 2 * r, "z": 0.002}, "bottom_scale": 1.0, "top_scale": 1.0,
-        "color": _color((0, 0, 0), 0.25),
-    } for x, y, r in wps]
+    discs = [
+        {
+            "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
+            "size": {"x": 2 * r, "y": 2 * r, "z": 0.002},
+            "bottom_scale": 1.0,
+            "top_scale": 1.0,
+            "color": _color((0, 0, 0), 0.25),
+        }
+        for x, y, r in wps
+    ]
     loops = [_ellipse_line(*e) for e in els]
     payload = {
         "deletions": [],
@@ -138,22 +158,43 @@ def target_outline(t: float, mask: np.ndarray, transform: ImageToDomain) -> tupl
     lines = []
     for c in contours:
         xy = transform.to_domain(c.reshape(-1, 2) + 0.5)
-        lines.append({"type": 1, "pose": IDENTITY_POSE, "thickness": 2.0, "scale_invariant": True,
-                      "points": [_point(x, y) for x, y in xy], "color": _color((80, 80, 80), 1.0),
-                      "colors": [], "indices": []})
+        lines.append(
+            {
+                "type": 1,
+                "pose": IDENTITY_POSE,
+                "thickness": 2.0,
+                "scale_invariant": True,
+                "points": [_point(x, y) for x, y in xy],
+                "color": _color((80, 80, 80), 1.0),
+                "colors": [],
+                "indices": [],
+            }
+        )
     payload = {"deletions": [], "entities": [_entity(sc.stamp(t), "target", lines=lines)]}
     return payload, png.tobytes()
 
 
 def compressed_image(t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> dict:
     """The perception input as `foxglove.CompressedImage` on `fluidswarm/<run>/perception/image`."""
-    payload = {"timestamp": sc.stamp(t), "frame_id": str(frame_id),
-               "data": base64.b64encode(bytes(jpeg_bytes)).decode("ascii"), "format": fmt}
+    payload = {
+        "timestamp": sc.stamp(t),
+        "frame_id": str(frame_id),
+        "data": base64.b64encode(bytes(jpeg_bytes)).decode("ascii"),
+        "format": fmt,
+    }
     return payload
 
 
-def event_log(t: float, level: int | str, name: str, message: str, *, kind: str | None = None,
-              agent: int | None = None, step: int | None = None) -> dict:
+def event_log(
+    t: float,
+    level: int | str,
+    name: str,
+    message: str,
+    *,
+    kind: str | None = None,
+    agent: int | None = None,
+    step: int | None = None,
+) -> dict:
     """A `foxglove.Log` on `fluidswarm/<run>/event`.
 
     `level` is a foxglove LogLevel (0-5) or its name ("info", ...); `name` the process (e.g.
@@ -167,8 +208,14 @@ def event_log(t: float, level: int | str, name: str, message: str, *, kind: str 
         level = sc.LOG_LEVELS[level.lower()]
     if int(level) not in range(6):
         raise ValueError(f"log level must be 0..5, got {level}")
-    extra = {"kind": kind, "agent": None if agent is None else int(agent),
-             "step": None if step is None else int(step)}
-    payload = {"timestamp": sc.stamp(t), "level": int(level), "message": str(message), "name": str(name),
-               "file": "", "line": 0, sc.EXTRA_KEY: extra}
+    extra = {"kind": kind, "agent": None if agent is None else int(agent), "step": None if step is None else int(step)}
+    payload = {
+        "timestamp": sc.stamp(t),
+        "level": int(level),
+        "message": str(message),
+        "name": str(name),
+        "file": "",
+        "line": 0,
+        sc.EXTRA_KEY: extra,
+    }
     return payload

@@ -16,8 +16,16 @@ class Progress:
     `show(done, details...)` with an absolute count and `close()` at the end.
     """
 
-    def __init__(self, total: int, label: str = "", stream: TextIO | None = None, width: int = 30,
-                 interval: float = 0.2, log_interval: float = 5.0, rate_unit: str = ""):
+    def __init__(
+        self,
+        total: int,
+        label: str = "",
+        stream: TextIO | None = None,
+        width: int = 30,
+        interval: float = 0.2,
+        log_interval: float = 5.0,
+        rate_unit: str = "",
+    ):
         self.total, self.label, self.width = max(0, int(total)), label, width
         self.stream = stream if stream is not None else sys.stderr
         self.tty = self.stream.isatty() if hasattr(self.stream, "isatty") else False
@@ -28,7 +36,7 @@ class Progress:
         self._last = -1e9
         self._details: tuple[str, ...] = ()
 
-    def __enter__(self) -> "Progress":
+    def __enter__(self) -> Progress:
         self._draw()
         return self
 
@@ -53,8 +61,11 @@ class Progress:
         now = time.monotonic()
         self._last = now
         filled = self.width * self.done // self.total if self.total else self.width
-        parts = [f"{self.label} " if self.label else "", f"[{'#' * filled}{' ' * (self.width - filled)}] ",
-                 f"{self.done}/{self.total}"]
+        parts = [
+            f"{self.label} " if self.label else "",
+            f"[{'#' * filled}{' ' * (self.width - filled)}] ",
+            f"{self.done}/{self.total}",
+        ]
         if self.rate_unit:
             parts.append(f"  {self.done / max(now - self._t0, 1e-9):.1f} {self.rate_unit}/s")
         parts += [f"  {d}" for d in self._details]

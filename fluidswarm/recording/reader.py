@@ -136,12 +136,14 @@ def decode_metadata(values: dict[str, str]) -> dict:
 def _decode_points(msg: dict) -> np.ndarray:
     """The packed `data` of a foxglove.PointCloud as a structured array, using the message's own fields."""
     fields = msg["fields"]
-    dtype = np.dtype({
-        "names": [f["name"] for f in fields],
-        "formats": [sc.NUMERIC_DTYPE[f["type"]] for f in fields],
-        "offsets": [f["offset"] for f in fields],
-        "itemsize": msg["point_stride"],
-    })
+    dtype = np.dtype(
+        {
+            "names": [f["name"] for f in fields],
+            "formats": [sc.NUMERIC_DTYPE[f["type"]] for f in fields],
+            "offsets": [f["offset"] for f in fields],
+            "itemsize": msg["point_stride"],
+        }
+    )
     return np.frombuffer(base64.b64decode(msg["data"]), dtype=dtype)
 
 
@@ -149,10 +151,14 @@ def _frame(msg: dict, log_time: int, sequence: int) -> Frame:
     pts = _decode_points(msg)
     step = msg.get(sc.EXTRA_KEY, {}).get("step", sequence)
     return Frame(
-        step=int(step), t=log_time / 1e9, ids=pts["id"].astype(np.int64),
+        step=int(step),
+        t=log_time / 1e9,
+        ids=pts["id"].astype(np.int64),
         positions=np.stack([pts["x"], pts["y"]], axis=1).astype(float),
         velocities=np.stack([pts["vx"], pts["vy"]], axis=1).astype(float),
-        density=pts["rho"].astype(float), pressure=pts["p"].astype(float), class_ids=pts["class"].astype(np.int64),
+        density=pts["rho"].astype(float),
+        pressure=pts["p"].astype(float),
+        class_ids=pts["class"].astype(np.int64),
     )
 
 
@@ -283,19 +289,38 @@ def _read(path: Path, reader, want_images: bool) -> Run:
             run.frames.append(_frame(msg, message.log_time, message.sequence))
         elif leaf == sc.EVENTS:
             extra = msg.get(sc.EXTRA_KEY, {})
-            run.events.append(Event(t=t, level=int(msg.get("level", 0)), name=msg.get("name", ""),
-                                    message=msg.get("message", ""), kind=extra.get("kind"),
-                                    agent=extra.get("agent"), step=extra.get("step")))
+            run.events.append(
+                Event(
+                    t=t,
+                    level=int(msg.get("level", 0)),
+                    name=msg.get("name", ""),
+                    message=msg.get("message", ""),
+                    kind=extra.get("kind"),
+                    agent=extra.get("agent"),
+                    step=extra.get("step"),
+                )
+            )
         elif leaf == sc.SCENE:
             extra = msg.get(sc.EXTRA_KEY)
             if extra is not None:  # target outlines carry no waypoints/ellipses
-                run.scenes.append(Scene(t=t, waypoints=[tuple(w) for w in extra.get("waypoints", [])],
-                                        ellipses=[tuple(e) for e in extra.get("ellipses", [])]))
+                run.scenes.append(
+                    Scene(
+                        t=t,
+                        waypoints=[tuple(w) for w in extra.get("waypoints", [])],
+                        ellipses=[tuple(e) for e in extra.get("ellipses", [])],
+                    )
+                )
         elif leaf == sc.COMMAND:
             run.commands.append((t, msg))
         elif leaf == sc.IMAGE:
-            run.images.append(Image(t=t, frame_id=msg.get("frame_id", ""), format=msg.get("format", ""),
-                                    data=base64.b64decode(msg.get("data", ""))))
+            run.images.append(
+                Image(
+                    t=t,
+                    frame_id=msg.get("frame_id", ""),
+                    format=msg.get("format", ""),
+                    data=base64.b64decode(msg.get("data", "")),
+                )
+            )
     run.frames.sort(key=lambda f: f.step)
     return run
 
@@ -307,7 +332,9 @@ class Completeness:
     missing_states: int  # (step, alive agent) pairs with no state, lost steps included
 
     def lines(self) -> str:
-        return f"complete={'true' if self.complete else 'false'}\nsteps={self.steps}\nmissing_states={self.missing_states}"
+        return (
+            f"complete={'true' if self.complete else 'false'}\nsteps={self.steps}\nmissing_states={self.missing_states}"
+        )
 
 
 def salvage_lines(run: Run) -> str:

@@ -29,9 +29,9 @@ from agent.protocol import keys
 from agent.protocol.errors import UserError
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
+from agent.sph.robot import POINT, RobotModel
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
-from agent.sph.robot import POINT, RobotModel
 from fluidswarm.recording.contacts import ContactCounter
 from fluidswarm.recording.live import LiveServer, parse_address
 from fluidswarm.recording.steps import Recorder
@@ -63,8 +63,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
-    ap.add_argument("--state-keys", choices=("id", "cell"), default="cell",
-                    help="where the run's states are taken from: the agents' id keys (per-process rights) or cells")
+    ap.add_argument(
+        "--state-keys",
+        choices=("id", "cell"),
+        default="cell",
+        help="where the run's states are taken from: the agents' id keys (per-process rights) or cells",
+    )
     args = ap.parse_args(argv)
     if not keys.valid_run_name(args.run):
         print(f"fluidswarm record: error: --run {args.run!r} is not a valid run name", file=sys.stderr)
@@ -108,8 +112,10 @@ def main(argv: list[str] | None = None) -> int:
         subs = [
             # On zenoh's receiving thread (indirect=False): the callback only enqueues, and a Python thread
             # hand-over per state (N per step) was most of this process's CPU at N = 300.
-            session.declare_subscriber(keys.state_observed_expr(args.run, args.state_keys == "id"),
-                                       zenoh.handlers.Callback(recorder.on_state, indirect=False)),
+            session.declare_subscriber(
+                keys.state_observed_expr(args.run, args.state_keys == "id"),
+                zenoh.handlers.Callback(recorder.on_state, indirect=False),
+            ),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),
             # the final reports: an agent that reports it finished (or was stopped) left, it did not die
@@ -117,9 +123,9 @@ def main(argv: list[str] | None = None) -> int:
             # Direct too: an agent's alive token comes before its first state on the link, and must be queued
             # before it. Through zenoh-python's default (a thread of its own) it could be queued after the
             # others' step-0 states, and step 0 was written without that agent (test_live, under load).
-            session.liveliness().declare_subscriber(keys.alive_expr(args.run),
-                                                    zenoh.handlers.Callback(recorder.on_alive, indirect=False),
-                                                    history=True),
+            session.liveliness().declare_subscriber(
+                keys.alive_expr(args.run), zenoh.handlers.Callback(recorder.on_alive, indirect=False), history=True
+            ),
         ]
         token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
         record(recorder, stop)

@@ -61,8 +61,10 @@ class Salvage:
                 yield self.schemas.get(channel.schema_id), channel, m
 
     def lines(self) -> str:
-        return (f"chunks_kept={self.chunks_kept}\nchunks_dropped={self.chunks_dropped}\n"
-                f"bytes_kept={self.bytes_kept}\nbytes_dropped={self.bytes_dropped}")
+        return (
+            f"chunks_kept={self.chunks_kept}\nchunks_dropped={self.chunks_dropped}\n"
+            f"bytes_kept={self.bytes_kept}\nbytes_dropped={self.bytes_dropped}"
+        )
 
 
 def salvage(path: str | os.PathLike) -> Salvage:
@@ -119,15 +121,22 @@ def rewrite(path: str | os.PathLike, kept: Salvage) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".recovering", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as stream:
-            w = Writer(stream, compression=CompressionType.ZSTD, index_types=IndexType.ALL, use_chunking=True,
-                       use_statistics=True, use_summary_offsets=True)
+            w = Writer(
+                stream,
+                compression=CompressionType.ZSTD,
+                index_types=IndexType.ALL,
+                use_chunking=True,
+                use_statistics=True,
+                use_summary_offsets=True,
+            )
             w.start(profile="", library="fluidswarm replay --recover")
             schema_ids, channel_ids = {}, {}
             for m in kept.metadata:
                 w.add_metadata(m.name, dict(m.metadata))
             for a in kept.attachments:
-                w.add_attachment(create_time=a.create_time, log_time=a.log_time, name=a.name,
-                                 media_type=a.media_type, data=a.data)
+                w.add_attachment(
+                    create_time=a.create_time, log_time=a.log_time, name=a.name, media_type=a.media_type, data=a.data
+                )
             for schema, channel, m in kept.iter_messages():
                 if channel.id not in channel_ids:
                     sid = 0
@@ -135,10 +144,16 @@ def rewrite(path: str | os.PathLike, kept: Salvage) -> Path:
                         if schema.id not in schema_ids:
                             schema_ids[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
                         sid = schema_ids[schema.id]
-                    channel_ids[channel.id] = w.register_channel(channel.topic, channel.message_encoding, sid,
-                                                                 dict(channel.metadata))
-                w.add_message(channel_ids[channel.id], log_time=m.log_time, data=m.data, publish_time=m.publish_time,
-                              sequence=m.sequence)
+                    channel_ids[channel.id] = w.register_channel(
+                        channel.topic, channel.message_encoding, sid, dict(channel.metadata)
+                    )
+                w.add_message(
+                    channel_ids[channel.id],
+                    log_time=m.log_time,
+                    data=m.data,
+                    publish_time=m.publish_time,
+                    sequence=m.sequence,
+                )
             w.finish()
             stream.flush()
             os.fsync(stream.fileno())

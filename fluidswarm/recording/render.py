@@ -59,9 +59,17 @@ def class_colours(class_ids) -> np.ndarray:
     return sc.class_colour(class_ids) / 255.0
 
 
-def plot_formation(path: str | Path, positions: np.ndarray, classes: np.ndarray, class_names=None, title: str = "",
-                   background: np.ndarray | None = None, extent=None, waypoints: np.ndarray | None = None,
-                   outline=()) -> Path:
+def plot_formation(
+    path: str | Path,
+    positions: np.ndarray,
+    classes: np.ndarray,
+    class_names=None,
+    title: str = "",
+    background: np.ndarray | None = None,
+    extent=None,
+    waypoints: np.ndarray | None = None,
+    outline=(),
+) -> Path:
     """Write a PNG of particles coloured by class, optionally over a background image (extent in metres),
     with the command's waypoints or the fill controller's shape (`outline`: rings of (x, y))."""
     path = Path(path)
@@ -123,8 +131,15 @@ class FormationRenderer:
             rows, cols = tg.mask.shape
             (x0, y1), (x1, y0) = tg.transform.to_domain(np.array([[0, 0], [cols, rows]], dtype=float))
             self._target_img = self.ax.imshow(
-                np.where(tg.mask, 0.3, np.nan), cmap="Greys", vmin=0, vmax=1, extent=(x0, x1, y0, y1),
-                origin="upper", interpolation="nearest", zorder=1)
+                np.where(tg.mask, 0.3, np.nan),
+                cmap="Greys",
+                vmin=0,
+                vmax=1,
+                extent=(x0, x1, y0, y1),
+                origin="upper",
+                interpolation="nearest",
+                zorder=1,
+            )
 
     def _set_scene(self, scene: Scene | None) -> None:
         for p in self._patches:
@@ -133,12 +148,29 @@ class FormationRenderer:
         if scene is None:
             return
         for x, y, r in scene.waypoints:
-            self._patches.append(self.ax.add_patch(
-                Circle((x, y), r, facecolor=(0, 0, 0, 0.08), edgecolor=(0, 0, 0, 0.6), lw=0.8, zorder=2, animated=True)))
+            self._patches.append(
+                self.ax.add_patch(
+                    Circle(
+                        (x, y), r, facecolor=(0, 0, 0, 0.08), edgecolor=(0, 0, 0, 0.6), lw=0.8, zorder=2, animated=True
+                    )
+                )
+            )
         for x, y, major, minor, angle in scene.ellipses:
-            self._patches.append(self.ax.add_patch(
-                Ellipse((x, y), major, minor, angle=angle, fill=False, edgecolor="tab:red", lw=1.2, zorder=2,
-                        animated=True)))
+            self._patches.append(
+                self.ax.add_patch(
+                    Ellipse(
+                        (x, y),
+                        major,
+                        minor,
+                        angle=angle,
+                        fill=False,
+                        edgecolor="tab:red",
+                        lw=1.2,
+                        zorder=2,
+                        animated=True,
+                    )
+                )
+            )
 
     def render(self, frame: Frame) -> np.ndarray:
         shown = [tg for tg in self._run.targets if tg.t <= frame.t]
@@ -192,9 +224,16 @@ def plot_series(s: Series, out: Path) -> dict[str, Path]:
     speed_lines = [(s.t, v, f"class {c}", class_colours([c])[0]) for c, v in s.speed_by_class.items()]
     return {
         "speed": _plot(out / "speed_by_class.png", "Average speed per class", "mean |v| [m/s]", speed_lines),
-        "pressure": _plot(out / "pressure.png", "Average pressure", "mean p", [(s.t, s.pressure, "pressure", "tab:purple")]),
-        "distance": _plot(out / "distance.png", "Average inter-particle distance", "distance [m]", [
-            (s.t, s.nn_distance, "nearest neighbour (mean)", "tab:blue"),
-            (s.t, s.pair_distance, "all pairs (mean)", "tab:orange"),
-        ]),
+        "pressure": _plot(
+            out / "pressure.png", "Average pressure", "mean p", [(s.t, s.pressure, "pressure", "tab:purple")]
+        ),
+        "distance": _plot(
+            out / "distance.png",
+            "Average inter-particle distance",
+            "distance [m]",
+            [
+                (s.t, s.nn_distance, "nearest neighbour (mean)", "tab:blue"),
+                (s.t, s.pair_distance, "all pairs (mean)", "tab:orange"),
+            ],
+        ),
     }

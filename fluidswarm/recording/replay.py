@@ -3,7 +3,6 @@ fidelity score; or, with `--check`, verify that the recording is complete."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -11,8 +10,8 @@ from typing import TextIO
 import numpy as np
 
 from agent.protocol.errors import UserError
-from fluidswarm.recording.analysis import Series, series
 from coordinator.control.fidelity import Fidelity, fidelity
+from fluidswarm.recording.analysis import Series, series
 from fluidswarm.recording.progress import Progress
 from fluidswarm.recording.reader import Run, as_fidelity, load_run
 from fluidswarm.recording.render import GIF_SIZE, SNAPSHOT_SIZE, FormationRenderer, plot_series, save_gif, save_png
@@ -49,8 +48,14 @@ def _evenly(n: int, k: int) -> list[int]:
     return sorted({int(round(i)) for i in np.linspace(0, n - 1, min(n, k))})
 
 
-def replay(path: str | Path, out: str | Path | None = None, *, max_frames: int = 120, fps: float = 10.0,
-           progress: TextIO | None = None) -> ReplayResult:
+def replay(
+    path: str | Path,
+    out: str | Path | None = None,
+    *,
+    max_frames: int = 120,
+    fps: float = 10.0,
+    progress: TextIO | None = None,
+) -> ReplayResult:
     """Render `path` into `out` (default: `<RUN>_replay/` beside the file) and score the final formation."""
     if max_frames < 2 or not fps > 0:
         raise UserError(f"need --max-frames >= 2 and --fps > 0, got {max_frames} and {fps}")

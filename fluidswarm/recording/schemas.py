@@ -51,8 +51,16 @@ def packed_fields(dtype: np.dtype) -> list[dict]:
 # Class colours (RGBA 0-255), the matplotlib "tab10" cycle; class k uses entry k mod 10.
 CLASS_COLOURS = np.array(
     [
-        (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-        (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207),
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
     ],
     dtype=np.uint8,
 )
@@ -65,8 +73,13 @@ def class_colour(class_ids: np.ndarray) -> np.ndarray:
 
 # --- JSON Schemas (field names and types of the Foxglove well-known schemas) ---------------------------
 
-_TIME = {"type": "object", "properties": {"sec": {"type": "integer", "minimum": 0},
-                                          "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
+_TIME = {
+    "type": "object",
+    "properties": {
+        "sec": {"type": "integer", "minimum": 0},
+        "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
+    },
+}
 _VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
 _QUAT = {"type": "object", "properties": {k: {"type": "number"} for k in "xyzw"}}
 _POSE = {"type": "object", "properties": {"position": _VEC3, "orientation": _QUAT}}
@@ -87,37 +100,77 @@ _POINT_CLOUD = {
         "frame_id": {"type": "string"},
         "pose": _POSE,
         "point_stride": {"type": "integer", "minimum": 0},
-        "fields": {"type": "array", "items": {"type": "object", "properties": {
-            "name": {"type": "string"},
-            "offset": {"type": "integer", "minimum": 0},
-            "type": _enum("UNKNOWN", "UINT8", "INT8", "UINT16", "INT16", "UINT32", "INT32", "FLOAT32", "FLOAT64"),
-        }}},
+        "fields": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "properties": {
+                    "name": {"type": "string"},
+                    "offset": {"type": "integer", "minimum": 0},
+                    "type": _enum(
+                        "UNKNOWN", "UINT8", "INT8", "UINT16", "INT16", "UINT32", "INT32", "FLOAT32", "FLOAT64"
+                    ),
+                },
+            },
+        },
         "data": {"type": "string", "contentEncoding": "base64"},
         EXTRA_KEY: _EXTRA,
     },
 }
 
-_CYLINDER = {"type": "object", "properties": {
-    "pose": _POSE, "size": _VEC3, "bottom_scale": {"type": "number"}, "top_scale": {"type": "number"}, "color": _COLOR}}
-_LINE = {"type": "object", "properties": {
-    "type": _enum("LINE_STRIP", "LINE_LOOP", "LINE_LIST"),
-    "pose": _POSE, "thickness": {"type": "number"}, "scale_invariant": {"type": "boolean"},
-    "points": {"type": "array", "items": _VEC3}, "color": _COLOR,
-    "colors": {"type": "array", "items": _COLOR}, "indices": {"type": "array", "items": {"type": "integer"}}}}
-_ENTITY = {"type": "object", "properties": {
-    "timestamp": _TIME, "frame_id": {"type": "string"}, "id": {"type": "string"},
-    "lifetime": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
-    "frame_locked": {"type": "boolean"},
-    "metadata": {"type": "array", "items": _KEY_VALUE},
-    "arrows": {"type": "array"}, "cubes": {"type": "array"}, "spheres": {"type": "array"},
-    "cylinders": {"type": "array", "items": _CYLINDER}, "lines": {"type": "array", "items": _LINE},
-    "triangles": {"type": "array"}, "texts": {"type": "array"}, "models": {"type": "array"}}}
+_CYLINDER = {
+    "type": "object",
+    "properties": {
+        "pose": _POSE,
+        "size": _VEC3,
+        "bottom_scale": {"type": "number"},
+        "top_scale": {"type": "number"},
+        "color": _COLOR,
+    },
+}
+_LINE = {
+    "type": "object",
+    "properties": {
+        "type": _enum("LINE_STRIP", "LINE_LOOP", "LINE_LIST"),
+        "pose": _POSE,
+        "thickness": {"type": "number"},
+        "scale_invariant": {"type": "boolean"},
+        "points": {"type": "array", "items": _VEC3},
+        "color": _COLOR,
+        "colors": {"type": "array", "items": _COLOR},
+        "indices": {"type": "array", "items": {"type": "integer"}},
+    },
+}
+_ENTITY = {
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "frame_id": {"type": "string"},
+        "id": {"type": "string"},
+        "lifetime": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
+        "frame_locked": {"type": "boolean"},
+        "metadata": {"type": "array", "items": _KEY_VALUE},
+        "arrows": {"type": "array"},
+        "cubes": {"type": "array"},
+        "spheres": {"type": "array"},
+        "cylinders": {"type": "array", "items": _CYLINDER},
+        "lines": {"type": "array", "items": _LINE},
+        "triangles": {"type": "array"},
+        "texts": {"type": "array"},
+        "models": {"type": "array"},
+    },
+}
 _SCENE_UPDATE = {
     "title": "foxglove.SceneUpdate",
     "type": "object",
     "properties": {
-        "deletions": {"type": "array", "items": {"type": "object", "properties": {
-            "timestamp": _TIME, "type": _enum("MATCHING_ID", "ALL"), "id": {"type": "string"}}}},
+        "deletions": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "properties": {"timestamp": _TIME, "type": _enum("MATCHING_ID", "ALL"), "id": {"type": "string"}},
+            },
+        },
         "entities": {"type": "array", "items": _ENTITY},
         EXTRA_KEY: _EXTRA,
     },

@@ -20,7 +20,7 @@ from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
 from agent.protocol.report import Status, decode_report
 from agent.protocol.wire import decode_state
-from agent.sph.particle import P, RHO, VX, VY, X, Y
+from agent.sph.particle import RHO, VX, VY, P, X, Y
 from fluidswarm.recording.writer import RunWriter
 
 # A step is written once every agent it waits for has been silent this long (frozen, cut off, never reported).
@@ -106,8 +106,15 @@ class Recorder:
             if j in self.joining:
                 self.joining.discard(j)
                 self.alive.add(j)
-                self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} joined at step {step}",
-                                        kind="started", agent=j, step=step)
+                self.writer.write_event(
+                    self.t(step),
+                    "info",
+                    f"agent/{j}",
+                    f"agent {j} joined at step {step}",
+                    kind="started",
+                    agent=j,
+                    step=step,
+                )
             if step not in self.pending:
                 self.first_seen[step] = time.monotonic()
             self.pending.setdefault(step, {})[j] = (cls, values)
@@ -116,8 +123,9 @@ class Recorder:
             self.heard_at[j] = self.last_message
             if j in self.stopped:
                 self.stopped.discard(j)
-                self.writer.write_event(self.t(step), "info", f"agent/{j}", f"agent {j} reports again",
-                                        kind="started", agent=j, step=step)
+                self.writer.write_event(
+                    self.t(step), "info", f"agent/{j}", f"agent {j} reports again", kind="started", agent=j, step=step
+                )
         elif kind == 1:
             key, up = data
             j = keys.id_from_key(key)
@@ -128,8 +136,15 @@ class Recorder:
                     self.joining.add(j)
                 elif j not in self.alive:
                     self.alive.add(j)
-                    self.writer.write_event(self.t(self.next_step), "info", f"agent/{j}", f"agent {j} started",
-                                            kind="started", agent=j, step=self.next_step if self.newest >= 0 else 0)
+                    self.writer.write_event(
+                        self.t(self.next_step),
+                        "info",
+                        f"agent/{j}",
+                        f"agent {j} started",
+                        kind="started",
+                        agent=j,
+                        step=self.next_step if self.newest >= 0 else 0,
+                    )
             elif j in self.joining:
                 self.joining.discard(j)
             elif j in self.alive:
@@ -148,8 +163,9 @@ class Recorder:
             if ev.kind is not EventKind.STARTED:  # lifecycle 'started' comes from liveliness, with its step
                 level = "warning" if ev.kind in (EventKind.NEIGHBOUR_TIMEOUT, EventKind.FELL_BEHIND) else "info"
                 text = json.dumps(ev.as_json(), sort_keys=True)[:2000]
-                self.writer.write_event(self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value,
-                                        agent=ev.id, step=ev.step)
+                self.writer.write_event(
+                    self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value, agent=ev.id, step=ev.step
+                )
         elif kind == 3:
             try:
                 text = data.decode("utf-8")
@@ -178,11 +194,25 @@ class Recorder:
             self.gone_at.pop(j, None)
             if left is not None:
                 kind, words = left
-                self.writer.write_event(self.t(first_missing), "info", f"agent/{j}", f"agent {j} {words}",
-                                        kind=kind, agent=j, step=first_missing)
+                self.writer.write_event(
+                    self.t(first_missing),
+                    "info",
+                    f"agent/{j}",
+                    f"agent {j} {words}",
+                    kind=kind,
+                    agent=j,
+                    step=first_missing,
+                )
             else:
-                self.writer.write_event(self.t(first_missing), "warning", f"agent/{j}", f"agent {j} died",
-                                        kind="died", agent=j, step=first_missing)
+                self.writer.write_event(
+                    self.t(first_missing),
+                    "warning",
+                    f"agent/{j}",
+                    f"agent {j} died",
+                    kind="died",
+                    agent=j,
+                    step=first_missing,
+                )
 
     def _expected_at(self, step: int) -> set[int]:
         dying = {j for j, s in self.dead_at.items() if step < s}
@@ -193,8 +223,10 @@ class Recorder:
         waiting = self._expected_at(step) - set(have)
         now = time.monotonic()
         since = self.first_seen.get(step, now)  # an agent never heard of is timed from the step's first state
-        return (all(now - self.heard_at.get(j, since) >= RELEASE_SECONDS for j in waiting)
-                or now - self.last_message > QUIET_SECONDS)
+        return (
+            all(now - self.heard_at.get(j, since) >= RELEASE_SECONDS for j in waiting)
+            or now - self.last_message > QUIET_SECONDS
+        )
 
     def _write_step(self, step: int) -> None:
         have = self.pending.pop(step, {})
@@ -203,8 +235,15 @@ class Recorder:
         for j in missing:
             if self.last_step.get(j, -1) < step:  # it stopped reporting: frozen or cut off
                 self.stopped.add(j)
-                self.writer.write_event(self.t(step), "warning", f"agent/{j}", f"agent {j} stopped reporting (frozen?)",
-                                        kind="died", agent=j, step=step)
+                self.writer.write_event(
+                    self.t(step),
+                    "warning",
+                    f"agent/{j}",
+                    f"agent {j} stopped reporting (frozen?)",
+                    kind="died",
+                    agent=j,
+                    step=step,
+                )
             elif j not in self.skipping:
                 # It reported later steps but not this one: it froze and rejoined at the swarm's step
                 # (docs/protocol.md), skipping the steps between; it is away from here to its next state.
@@ -212,11 +251,24 @@ class Recorder:
                 if back is None:
                     continue
                 self.skipping[j] = back
-                self.writer.write_event(self.t(step), "warning", f"agent/{j}",
-                                        f"agent {j} skipped steps {step}..{back - 1} (frozen, rejoined)",
-                                        kind="died", agent=j, step=step)
-                self.writer.write_event(self.t(back), "info", f"agent/{j}", f"agent {j} reports again at step {back}",
-                                        kind="started", agent=j, step=back)
+                self.writer.write_event(
+                    self.t(step),
+                    "warning",
+                    f"agent/{j}",
+                    f"agent {j} skipped steps {step}..{back - 1} (frozen, rejoined)",
+                    kind="died",
+                    agent=j,
+                    step=step,
+                )
+                self.writer.write_event(
+                    self.t(back),
+                    "info",
+                    f"agent/{j}",
+                    f"agent {j} reports again at step {back}",
+                    kind="started",
+                    agent=j,
+                    step=back,
+                )
         for j in [j for j, back in self.skipping.items() if back <= step]:
             del self.skipping[j]
         if not have:
@@ -224,7 +276,9 @@ class Recorder:
         ids = np.array(sorted(have), dtype=np.int64)
         vals = np.array([have[j][1] for j in ids])
         cls = np.array([have[j][0] for j in ids], dtype=np.int64)
-        self.writer.write_states(step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls)
+        self.writer.write_states(
+            step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls
+        )
         if self.contacts is not None:
             self.contacts.update(ids, vals)
         self.last_written = (step, vals[:, [X, Y]])

@@ -39,9 +39,18 @@ def spread_over(mask: np.ndarray, transform: ImageToDomain, n: int) -> np.ndarra
         a *= 0.97
 
 
-def write_synthetic_run(path: str | Path, *, steps: int = 50, n: int = 30, dt: float = 0.05, seed: int = 0,
-                        kill: dict[int, int] | None = None, classes: int = 3, scenario: str = "synthetic",
-                        stop_after: int | None = None) -> RunWriter:
+def write_synthetic_run(
+    path: str | Path,
+    *,
+    steps: int = 50,
+    n: int = 30,
+    dt: float = 0.05,
+    seed: int = 0,
+    kill: dict[int, int] | None = None,
+    classes: int = 3,
+    scenario: str = "synthetic",
+    stop_after: int | None = None,
+) -> RunWriter:
     """Write `steps` steps of `n` particles to `path` and close it.
 
     `kill` maps agent id -> first step without a state. `stop_after` returns (closed) after that many
@@ -56,8 +65,14 @@ def write_synthetic_run(path: str | Path, *, steps: int = 50, n: int = 30, dt: f
     ids = np.arange(n)
     cls = ids % classes
     tau = max(dt, steps * dt / 5)
-    meta = {"run": Path(path).stem, "scenario": scenario, "seed": seed, "domain": list(DOMAIN),
-            "parameters": {"n": n, "dt": dt, "steps": steps}, "agent_ids": ids.tolist()}
+    meta = {
+        "run": Path(path).stem,
+        "scenario": scenario,
+        "seed": seed,
+        "domain": list(DOMAIN),
+        "parameters": {"n": n, "dt": dt, "steps": steps},
+        "agent_ids": ids.tolist(),
+    }
     with RunWriter(path, meta) as w:
         w.write_target(0.0, mask, tf)
         for i in ids:

@@ -23,8 +23,8 @@ import queue
 import subprocess
 import threading
 import time
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 from mcap.writer import CompressionType, IndexType, Writer
@@ -47,7 +47,10 @@ def code_version() -> str:
     try:
         out = subprocess.run(
             ["git", "-C", str(here), "describe", "--always", "--dirty", "--tags"],
-            capture_output=True, text=True, timeout=5, check=True,
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
         )
         if out.stdout.strip():
             return out.stdout.strip()
@@ -83,8 +86,15 @@ class RunWriter:
     """Write one run to `path`. `metadata` goes to the MCAP metadata record `run` (see `encode_metadata`);
     its `run` entry names the run in the topics (default: the file's stem); `code_version` is added."""
 
-    def __init__(self, path: str | os.PathLike, metadata: dict, *, chunk_size: int = 512 * 1024, live=None,
-                 flush_seconds: float = FLUSH_SECONDS):
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        metadata: dict,
+        *,
+        chunk_size: int = 512 * 1024,
+        live=None,
+        flush_seconds: float = FLUSH_SECONDS,
+    ):
         """`live` (recording.live.LiveServer or None): also gets every message, as it is written;
         `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS)."""
         meta = dict(metadata)
@@ -121,7 +131,7 @@ class RunWriter:
 
     # --- life cycle ---------------------------------------------------------------------------------
 
-    def __enter__(self) -> "RunWriter":
+    def __enter__(self) -> RunWriter:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -195,8 +205,9 @@ class RunWriter:
         data = _dumps(payload)
 
         def op() -> None:
-            self._mcap.add_message(self._channel(leaf), log_time=log_time, data=data, publish_time=log_time,
-                                   sequence=sequence & 0xFFFFFFFF)
+            self._mcap.add_message(
+                self._channel(leaf), log_time=log_time, data=data, publish_time=log_time, sequence=sequence & 0xFFFFFFFF
+            )
 
         if not self._submit(op):
             return False
@@ -210,20 +221,27 @@ class RunWriter:
             if name not in self._schema_ids:
                 self._schema_ids[name] = self._mcap.register_schema(name, sc.SCHEMA_ENCODING, sc.schema_bytes(name))
             self._channels[leaf] = self._mcap.register_channel(
-                sc.topic(self.run, leaf), sc.MESSAGE_ENCODING, self._schema_ids[name])
+                sc.topic(self.run, leaf), sc.MESSAGE_ENCODING, self._schema_ids[name]
+            )
         return self._channels[leaf]
 
     # --- messages (built in messages.py) -------------------------------------------------------------
 
-    def write_states(self, step: int, t: float, ids, positions, velocities, density, pressure, class_ids,
-                     alive=None) -> bool:
+    def write_states(
+        self, step: int, t: float, ids, positions, velocities, density, pressure, class_ids, alive=None
+    ) -> bool:
         """All particle states of one step on `fluidswarm/<run>/state` (messages.state_cloud); the step
         number is the MCAP message sequence."""
-        return self._write(sc.STATE, t, msg.state_cloud(step, t, ids, positions, velocities, density, pressure,
-                                                        class_ids, alive), sequence=int(step))
+        return self._write(
+            sc.STATE,
+            t,
+            msg.state_cloud(step, t, ids, positions, velocities, density, pressure, class_ids, alive),
+            sequence=int(step),
+        )
 
-    def write_scene(self, t: float, waypoints: Iterable[Sequence[float]] = (),
-                    ellipses: Iterable[Sequence[float]] = ()) -> bool:
+    def write_scene(
+        self, t: float, waypoints: Iterable[Sequence[float]] = (), ellipses: Iterable[Sequence[float]] = ()
+    ) -> bool:
         """Waypoints and ellipses on `fluidswarm/<run>/scene` (messages.scene_update), replacing the last."""
         return self._write(sc.SCENE, t, msg.scene_update(t, waypoints, ellipses))
 
@@ -238,11 +256,21 @@ class RunWriter:
         def op() -> None:
             name = f"target/{self._targets}"
             self._targets += 1
-            self._mcap.add_attachment(create_time=log_time, log_time=log_time, name=f"{name}.png",
-                                      media_type="image/png", data=png)
-            self._mcap.add_metadata(name, encode_metadata({
-                "t": float(t), "attachment": f"{name}.png", "rows": mask.shape[0], "cols": mask.shape[1],
-                **transform.as_dict()}))
+            self._mcap.add_attachment(
+                create_time=log_time, log_time=log_time, name=f"{name}.png", media_type="image/png", data=png
+            )
+            self._mcap.add_metadata(
+                name,
+                encode_metadata(
+                    {
+                        "t": float(t),
+                        "attachment": f"{name}.png",
+                        "rows": mask.shape[0],
+                        "cols": mask.shape[1],
+                        **transform.as_dict(),
+                    }
+                ),
+            )
 
         if not self._submit(op):
             return False
@@ -251,8 +279,12 @@ class RunWriter:
     def write_fidelity(self, fidelity) -> bool:
         """The final formation's score (fidelity_iou, fidelity_inside, fidelity_coverage, nn_cv) as metadata
         record `fidelity`, so a file carries its own verdict (issue 15) without re-scoring."""
-        values = {"fidelity_iou": float(fidelity.iou), "fidelity_inside": float(fidelity.inside),
-                  "fidelity_coverage": float(fidelity.coverage), "nn_cv": float(fidelity.nn_cv)}
+        values = {
+            "fidelity_iou": float(fidelity.iou),
+            "fidelity_inside": float(fidelity.inside),
+            "fidelity_coverage": float(fidelity.coverage),
+            "nn_cv": float(fidelity.nn_cv),
+        }
         return self._submit(lambda: self._mcap.add_metadata("fidelity", encode_metadata(values)))
 
     def write_robots(self, figures: dict) -> bool:
@@ -274,7 +306,16 @@ class RunWriter:
         """The perception input on `fluidswarm/<run>/perception/image` (messages.compressed_image)."""
         return self._write(sc.IMAGE, t, msg.compressed_image(t, jpeg_bytes, frame_id, fmt), latch=f"image/{frame_id}")
 
-    def write_event(self, t: float, level: int | str, name: str, message: str, *, kind: str | None = None,
-                    agent: int | None = None, step: int | None = None) -> bool:
+    def write_event(
+        self,
+        t: float,
+        level: int | str,
+        name: str,
+        message: str,
+        *,
+        kind: str | None = None,
+        agent: int | None = None,
+        step: int | None = None,
+    ) -> bool:
         """A `foxglove.Log` on `fluidswarm/<run>/event` (messages.event_log: level, kind, agent, step)."""
         return self._write(sc.EVENTS, t, msg.event_log(t, level, name, message, kind=kind, agent=agent, step=step))

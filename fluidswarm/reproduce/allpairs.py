@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from agent.sph.params import SPHParams
-from agent.sph.particle import FROZEN, P, RHO, SXX, SXY, SYY, VX, VY, X, Y, apply_border, cap_speed
+from agent.sph.particle import FROZEN, RHO, SXX, SXY, SYY, VX, VY, P, X, Y, apply_border, cap_speed
 from agent.sph.reference import Driver
 
 LAGS = ("protocol", "none")
@@ -47,10 +47,14 @@ class Controls:
     push_y: np.ndarray
 
     @classmethod
-    def of(cls, controls, states: np.ndarray, step: int) -> "Controls":
+    def of(cls, controls, states: np.ndarray, step: int) -> Controls:
         cs = [c.control(states[k], step) for k, c in enumerate(controls)]
-        return cls(*(np.array([getattr(c, f) for c in cs], dtype=float) for f in
-                     ("wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y")))
+        return cls(
+            *(
+                np.array([getattr(c, f) for c in cs], dtype=float)
+                for f in ("wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y")
+            )
+        )
 
 
 def pair_geometry(x, y, params: SPHParams):
@@ -59,9 +63,9 @@ def pair_geometry(x, y, params: SPHParams):
     dy = y[:, None] - y[None, :]
     h = params.h
     R2 = (dx * dx + dy * dy) / (h * h)
-    inside = R2 <= params.kappa ** 2
+    inside = R2 <= params.kappa**2
     w = np.where(inside, np.exp(-R2) / (math.pi * h * h), 0.0)  # eq. 3.3, alpha_d = 1/(pi h^2)
-    g = np.where(inside, -2.0 * np.exp(-R2) / (math.pi * h ** 4), 0.0)  # dW/dR * dR/dx_i / x_ij
+    g = np.where(inside, -2.0 * np.exp(-R2) / (math.pi * h**4), 0.0)  # dW/dR * dR/dx_i / x_ij
     np.fill_diagonal(g, 0.0)
     return dx, dy, w, g * dx, g * dy
 
@@ -96,7 +100,9 @@ def acceleration(x, y, vx, vy, rho, p, sxx, sxy, syy, active, params: SPHParams,
     rr = rho[:, None] * rho[None, :]
     press = (p[:, None] + p[None, :]) / rr + pi_ij
     m = params.mass
-    ax = (m * (-press * wx + ((sxx[:, None] + sxx[None, :]) * wx + (sxy[:, None] + sxy[None, :]) * wy) / rr)).sum(axis=1)
+    ax = (m * (-press * wx + ((sxx[:, None] + sxx[None, :]) * wx + (sxy[:, None] + sxy[None, :]) * wy) / rr)).sum(
+        axis=1
+    )
     if eq38 == "printed":
         first = sxy[:, None] + sxx[None, :]
     else:
@@ -118,11 +124,20 @@ class AllPairsDriver(Driver):
     """All particles, all pairs, one step at a time; states laid out as agent/sph's (N, NFIELDS) rows.
     Its own equations (the point of it); only the stepping loop, `run`, is the reference drivers'."""
 
-    def __init__(self, states: np.ndarray, controls, params: SPHParams, lag: str = "protocol",
-                 eq38: str = "corrected", stress_rho: str = "previous"):
+    def __init__(
+        self,
+        states: np.ndarray,
+        controls,
+        params: SPHParams,
+        lag: str = "protocol",
+        eq38: str = "corrected",
+        stress_rho: str = "previous",
+    ):
         if lag not in LAGS or eq38 not in EQ38 or stress_rho not in STRESS_RHO:
-            raise ValueError(f"lag must be one of {LAGS}, eq38 one of {EQ38}, stress_rho one of {STRESS_RHO}; "
-                             f"got {lag!r}, {eq38!r}, {stress_rho!r}")
+            raise ValueError(
+                f"lag must be one of {LAGS}, eq38 one of {EQ38}, stress_rho one of {STRESS_RHO}; "
+                f"got {lag!r}, {eq38!r}, {stress_rho!r}"
+            )
         self.stress_rho = stress_rho
         self.states = np.array(states, dtype=float)
         self.controls, self.params, self.lag, self.eq38 = controls, params, lag, eq38
@@ -139,8 +154,9 @@ class AllPairsDriver(Driver):
         if self.lag == "none":
             ax, ay = acceleration(x, y, vx, vy, rho_now, p_now, sxx, sxy, syy, active, params, self.eq38)
         else:
-            ax, ay = acceleration(x, y, vx, vy, s[:, RHO], s[:, P], s[:, SXX], s[:, SXY], s[:, SYY], active,
-                                  params, self.eq38)
+            ax, ay = acceleration(
+                x, y, vx, vy, s[:, RHO], s[:, P], s[:, SXX], s[:, SXY], s[:, SYY], active, params, self.eq38
+            )
         fx, fy = body_force(x, y, c)
         new = s.copy()
         new[:, VX] = vx + params.dt * (ax + fx + c.push_x - params.drag * vx)

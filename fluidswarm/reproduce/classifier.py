@@ -52,10 +52,17 @@ def thesis_sized(images, labels, repeats: int, seed: int = 2012):
 def measure(ctx: Context) -> list[Group]:
     g = Group("Eigen-image classifier (thesis §4.5, Tables 4.1-4.2)")
     if not SHARED_HANDS.is_dir():
-        g.claims.append(Claim("§4.5, Tables 4.1-4.2", "recognition rate and time vs principal components",
-                              "46.67-93.33 %", f"not measured: {SHARED_HANDS} is missing", Verdict.NOT_COMPARABLE,
-                              "the hand photographs are not shipped with the product (licence and size)",
-                              "needs ../shared"))
+        g.claims.append(
+            Claim(
+                "§4.5, Tables 4.1-4.2",
+                "recognition rate and time vs principal components",
+                "46.67-93.33 %",
+                f"not measured: {SHARED_HANDS} is missing",
+                Verdict.NOT_COMPARABLE,
+                "the hand photographs are not shipped with the product (licence and size)",
+                "needs ../shared",
+            )
+        )
         return [g]
     from threadpoolctl import threadpool_limits
 
@@ -80,56 +87,99 @@ def measure(ctx: Context) -> list[Group]:
         f"as in the thesis). Two readings of the thesis' set size: *thesis-sized* = 10 training and 3 test "
         f"images per class (50 / 15, like its 50 training images and 15 tests), {repeats} random draws, mean ± "
         "sd; *documented split* = the project's fixed train/test split of all images of those classes "
-        "(docs/perception.md)." + ("" if big else " The quick run skips the documented split."))
+        "(docs/perception.md)." + ("" if big else " The quick run skips the documented split.")
+    )
     for k in COMPONENTS:
         ours = f"thesis-sized {mean_small[k]:.1f} ± {sd_small[k]:.1f} %"
         if big:
             ours += f"; documented split ({big_sizes[0]} / {big_sizes[1]}) {big[k][0]:.1f} %"
         close = abs(mean_small[k] - THESIS_RATE[k]) <= max(2 * sd_small[k] / np.sqrt(repeats), 0) + 10.0
-        g.claims.append(Claim(
-            "§4.5, Table 4.1", f"recognition rate with {k} principal components", f"{THESIS_RATE[k]:.2f} %",
-            ours, Verdict.AGREE if close else Verdict.DISAGREE,
-            "a different data set (sign-language digits, not the thesis' photographs); within 10 points counts as "
-            "agreeing" + ("" if close else (": our photographs vary less within a class, so few components "
-                                            "already separate them" if mean_small[k] > THESIS_RATE[k] else
-                                            ": with 10 training photographs per class (several people, lighting "
-                                            "and poses) raw-pixel eigen-images separate our classes less well"
-                                            + (f"; with the documented split's ~100 per class: {big[k][0]:.1f} %"
-                                               if big else ""))),
-            "both readings of the set size"))
+        g.claims.append(
+            Claim(
+                "§4.5, Table 4.1",
+                f"recognition rate with {k} principal components",
+                f"{THESIS_RATE[k]:.2f} %",
+                ours,
+                Verdict.AGREE if close else Verdict.DISAGREE,
+                "a different data set (sign-language digits, not the thesis' photographs); within 10 points counts as "
+                "agreeing"
+                + (
+                    ""
+                    if close
+                    else (
+                        ": our photographs vary less within a class, so few components already separate them"
+                        if mean_small[k] > THESIS_RATE[k]
+                        else ": with 10 training photographs per class (several people, lighting "
+                        "and poses) raw-pixel eigen-images separate our classes less well"
+                        + (f"; with the documented split's ~100 per class: {big[k][0]:.1f} %" if big else "")
+                    )
+                ),
+                "both readings of the set size",
+            )
+        )
     rising = mean_small[5] < mean_small[15] <= mean_small[30] + 2 and abs(mean_small[35] - mean_small[50]) < 5
-    g.claims.append(Claim(
-        "§4.5, Fig. 4.8", "the rate improves with the number of components and saturates from ~35 (70 % of 50)",
-        "46.67 → 93.33 %, flat from 35",
-        "thesis-sized: " + " → ".join(f"{mean_small[k]:.1f}" for k in COMPONENTS) + " %",
-        Verdict.AGREE if rising else Verdict.DISAGREE,
-        "more eigen-images keep more of each image; past ~35 of 50 the rest carry noise, so nearest-neighbour "
-        "decisions stop changing" if rising else "on our photographs the first components already carry the "
-        "class differences, so the curve is flat early", "thesis-sized"))
+    g.claims.append(
+        Claim(
+            "§4.5, Fig. 4.8",
+            "the rate improves with the number of components and saturates from ~35 (70 % of 50)",
+            "46.67 → 93.33 %, flat from 35",
+            "thesis-sized: " + " → ".join(f"{mean_small[k]:.1f}" for k in COMPONENTS) + " %",
+            Verdict.AGREE if rising else Verdict.DISAGREE,
+            "more eigen-images keep more of each image; past ~35 of 50 the rest carry noise, so nearest-neighbour "
+            "decisions stop changing"
+            if rising
+            else "on our photographs the first components already carry the "
+            "class differences, so the curve is flat early",
+            "thesis-sized",
+        )
+    )
     wrong35 = float(np.mean([15 - round(r[35][0] * 15 / 100) for r in small]))
-    g.claims.append(Claim(
-        "§4.5", "with 70 % of the components (35 of 50) only 1 test image of 15 is misclassified",
-        "1 wrong of 15", f"thesis-sized: {wrong35:.1f} wrong of 15 on average",
-        Verdict.AGREE if wrong35 <= 2.0 else Verdict.DISAGREE,
-        "our photographs of the five classes are less separable by raw-pixel eigen-images than the thesis' two "
-        "persons' hands" if wrong35 > 2.0 else "the same saturation", "thesis-sized"))
+    g.claims.append(
+        Claim(
+            "§4.5",
+            "with 70 % of the components (35 of 50) only 1 test image of 15 is misclassified",
+            "1 wrong of 15",
+            f"thesis-sized: {wrong35:.1f} wrong of 15 on average",
+            Verdict.AGREE if wrong35 <= 2.0 else Verdict.DISAGREE,
+            "our photographs of the five classes are less separable by raw-pixel eigen-images than the thesis' two "
+            "persons' hands"
+            if wrong35 > 2.0
+            else "the same saturation",
+            "thesis-sized",
+        )
+    )
     tr_s = {k: float(np.mean([r[k][1] for r in small])) for k in COMPONENTS}
     te_s = {k: float(np.mean([r[k][2] for r in small])) for k in COMPONENTS}
     timing = "; ".join(f"{k}: train {tr_s[k] * 1000:.1f} ms, test {te_s[k] * 1000:.2f} ms" for k in (5, 15, 30, 50))
     if big:
         timing += f" (documented split, {big_sizes[0]} images: features {t_feat:.2f} s, PCA at 50 {big[50][1]:.2f} s)"
-    g.claims.append(Claim(
-        "§4.5, Table 4.2", "training and testing time grow with the number of components",
-        "train 9.91 → 16.12 s, test 0.49 → 0.64 s (5 → 50 components)", f"thesis-sized: {timing}",
-        Verdict.NOT_COMPARABLE,
-        "the thesis' seconds include reading and preprocessing 240 × 320 images in 2012 (MATLAB); ours are "
-        "milliseconds of numpy on 50 × 50 pixels, dominated by overheads that do not grow with k",
-        "thesis-sized"))
+    g.claims.append(
+        Claim(
+            "§4.5, Table 4.2",
+            "training and testing time grow with the number of components",
+            "train 9.91 → 16.12 s, test 0.49 → 0.64 s (5 → 50 components)",
+            f"thesis-sized: {timing}",
+            Verdict.NOT_COMPARABLE,
+            "the thesis' seconds include reading and preprocessing 240 × 320 images in 2012 (MATLAB); ours are "
+            "milliseconds of numpy on 50 × 50 pixels, dominated by overheads that do not grow with k",
+            "thesis-sized",
+        )
+    )
     curves = {"ours, thesis-sized (mean)": np.array([mean_small[k] for k in COMPONENTS])}
     if big:
         curves["ours, documented split"] = np.array([big[k][0] for k in COMPONENTS])
-    g.plots.append((plots.lines(ctx.image_dir / "classifier_rate.png", "recognition rate vs principal components",
-                                np.array(COMPONENTS), curves, "principal components", "recognition rate [%]",
-                                {"thesis Table 4.1": (COMPONENTS, [THESIS_RATE[k] for k in COMPONENTS])}),
-                    "Table 4.1 / Fig. 4.8 re-measured on the shared hand photographs"))
+    g.plots.append(
+        (
+            plots.lines(
+                ctx.image_dir / "classifier_rate.png",
+                "recognition rate vs principal components",
+                np.array(COMPONENTS),
+                curves,
+                "principal components",
+                "recognition rate [%]",
+                {"thesis Table 4.1": (COMPONENTS, [THESIS_RATE[k] for k in COMPONENTS])},
+            ),
+            "Table 4.1 / Fig. 4.8 re-measured on the shared hand photographs",
+        )
+    )
     return [g]

@@ -16,8 +16,11 @@ REPORT_NAME = "thesis-reproduction.md"
 def register(sub) -> None:
     p = sub.add_parser("reproduce", help="re-measure the thesis' quantitative claims; write thesis-reproduction.md")
     p.add_argument("--quick", action="store_true", help="a reduced set (fewer particles and steps), under a minute")
-    p.add_argument("--out", default="docs", help="folder of thesis-reproduction.md; plots go to OUT/reproduction/ "
-                                                  "(default: %(default)s)")
+    p.add_argument(
+        "--out",
+        default="docs",
+        help="folder of thesis-reproduction.md; plots go to OUT/reproduction/ (default: %(default)s)",
+    )
     p.set_defaults(func=run)
 
 

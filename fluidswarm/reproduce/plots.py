@@ -7,10 +7,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fluidswarm.recording.render import class_colours  # noqa: E402
+from fluidswarm.recording.render import class_colours
 
 
 def save(fig, path: Path) -> Path:
@@ -21,8 +21,9 @@ def save(fig, path: Path) -> Path:
     return path
 
 
-def time_series(path: Path, panels: list[tuple[str, float, dict[str, np.ndarray], dict[str, float]]],
-                ylabel: str) -> Path:
+def time_series(
+    path: Path, panels: list[tuple[str, float, dict[str, np.ndarray], dict[str, float]]], ylabel: str
+) -> Path:
     """One panel per (title, dt, {label: series}, {label: thesis level}); thesis levels as dashed lines."""
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.6), squeeze=False)
     for ax, (title, dt, curves, levels) in zip(axes[0], panels):
@@ -42,13 +43,14 @@ def formations(path: Path, panels: list[tuple[str, np.ndarray, np.ndarray, tuple
     cols = min(len(panels), 4)
     rows = (len(panels) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
-    for ax in axes.flat[len(panels):]:
+    for ax in axes.flat[len(panels) :]:
         ax.axis("off")
     for ax, (title, pos, classes, names) in zip(axes.flat, panels):
         for k in np.unique(classes):
             sel = classes == k
-            ax.scatter(pos[sel, 0], pos[sel, 1], s=5, color=class_colours([k])[0],
-                       label=names[k] if k < len(names) else str(k))
+            ax.scatter(
+                pos[sel, 0], pos[sel, 1], s=5, color=class_colours([k])[0], label=names[k] if k < len(names) else str(k)
+            )
         ax.set_aspect("equal")
         ax.set_title(title, fontsize=8)
         ax.tick_params(labelsize=7)
@@ -74,8 +76,15 @@ def bars(path: Path, title: str, groups: dict[str, dict[str, float]], ylabel: st
     return save(fig, path)
 
 
-def lines(path: Path, title: str, x, curves: dict[str, np.ndarray], xlabel: str, ylabel: str,
-          markers: dict[str, tuple] | None = None) -> Path:
+def lines(
+    path: Path,
+    title: str,
+    x,
+    curves: dict[str, np.ndarray],
+    xlabel: str,
+    ylabel: str,
+    markers: dict[str, tuple] | None = None,
+) -> Path:
     """Curves over a shared x; `markers` {label: (xs, ys)} drawn as points (e.g. the thesis' table)."""
     fig, ax = plt.subplots(figsize=(5.6, 3.6))
     for k, (label, y) in enumerate(curves.items()):

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agent.sph.particle import FROZEN, P, VX, VY
+from agent.sph.particle import FROZEN, VX, VY, P
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import Setup
 

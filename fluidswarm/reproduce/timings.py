@@ -8,10 +8,10 @@ import time
 from pathlib import Path
 
 from agent.sph.reference import VectorisedDriver
-from fluidswarm.bench_record import BenchRecord
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 from coordinator.control.imitation_setup import prepare_input
 from coordinator.control.route import followers_for
+from fluidswarm.bench_record import BenchRecord
+from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 from fluidswarm.reproduce.gestures import INPUTS
 
 RESULTS = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "results.json"
@@ -24,27 +24,45 @@ def measure(ctx: Context) -> list[Group]:
         "The 300-agent gesture imitations are not re-run here (minutes of both cores): their times come from the "
         "latest `fluidswarm bench` (docs/benchmarks/results.json; fill controller, compiled agents, recorder and "
         "coordinator included, ends when the formation has settled). The step-size relation is timed on the "
-        "reference driver under the reading 'step size = time step'.")
+        "reference driver under the reading 'step size = time step'."
+    )
     try:
         bench = BenchRecord.load(RESULTS)
     except (OSError, ValueError) as exc:  # ValueError: not JSON, or not a bench record (BenchRecordError)
-        g.claims.append(Claim("§6.3, Table 6.1", "elapsed time per gesture", "126-219 s",
-                              f"not read: {RESULTS} ({exc})", Verdict.NOT_COMPARABLE,
-                              "run `fluidswarm bench` to measure the 300-agent imitations", "latest bench"))
+        g.claims.append(
+            Claim(
+                "§6.3, Table 6.1",
+                "elapsed time per gesture",
+                "126-219 s",
+                f"not read: {RESULTS} ({exc})",
+                Verdict.NOT_COMPARABLE,
+                "run `fluidswarm bench` to measure the 300-agent imitations",
+                "latest bench",
+            )
+        )
         return [g]
-    secs, iou, n, date = (bench.gesture_imitation_seconds, bench.gesture_imitation_fidelity_iou, bench.gesture_agents,
-                          bench.date)
+    secs, iou, n, date = (
+        bench.gesture_imitation_seconds,
+        bench.gesture_imitation_fidelity_iou,
+        bench.gesture_agents,
+        bench.date,
+    )
     for gesture, (t7, t10) in THESIS.items():
         if secs.get(gesture) is None or iou.get(gesture) is None:  # not measured, or that imitation failed
             continue
-        g.claims.append(Claim(
-            "§6.3, Table 6.1", f"elapsed time of the {gesture} imitation",
-            f"{t10} s (step size 10), {t7} s (step size 7); ~300-350 particles",
-            f"{secs[gesture]:.0f} s with {n} agent processes (IoU {iou[gesture]:.2f}), from "
-            f"docs/benchmarks/results.json of {date[:10]}, not re-run here",
-            Verdict.NOT_COMPARABLE,
-            "different machine, controller (fill, ends when settled) and decentralised agents over Zenoh versus a "
-            "2012 centralised simulation; ours is faster on 2 cores", "latest bench (agent processes)"))
+        g.claims.append(
+            Claim(
+                "§6.3, Table 6.1",
+                f"elapsed time of the {gesture} imitation",
+                f"{t10} s (step size 10), {t7} s (step size 7); ~300-350 particles",
+                f"{secs[gesture]:.0f} s with {n} agent processes (IoU {iou[gesture]:.2f}), from "
+                f"docs/benchmarks/results.json of {date[:10]}, not re-run here",
+                Verdict.NOT_COMPARABLE,
+                "different machine, controller (fill, ends when settled) and decentralised agents over Zenoh versus a "
+                "2012 centralised simulation; ours is faster on 2 cores",
+                "latest bench (agent processes)",
+            )
+        )
     # Reading: the step size is the time step, so a run to the same simulated time costs 1/dt.
 
     n_p, sim_seconds = (40, 4.0) if ctx.quick else (100, 12.0)
@@ -62,14 +80,19 @@ def measure(ctx: Context) -> list[Group]:
         walls[scale] = best
     ratio = walls[0.7] / walls[1.0]
     thesis_ratios = ", ".join(f"{t7 / t10:.2f}" for t7, t10 in THESIS.values())
-    g.claims.append(Claim(
-        "§6.3, Table 6.1", "a smaller step size makes the imitation take longer (7 vs 10)",
-        f"time ratio step 7 / step 10: {thesis_ratios}",
-        f"reading 'step size = time step': scissor, region controller, {n_p} particles, {sim_seconds:g} s simulated "
-        f"on the reference driver: CPU {walls[1.0]:.2f} s ({steps[1.0]} steps) at dt 0.02, {walls[0.7]:.2f} s "
-        f"({steps[0.7]} steps) at dt 0.014 (ratio {ratio:.2f}; 10/7 = 1.43)",
-        Verdict.AGREE if ratio > 1.1 else Verdict.DISAGREE,
-        "the same simulated time takes 1/dt more steps of about the same cost; the thesis' ratios (1.48-1.57) "
-        "are close to 10/7, which supports this reading; the other reading (iterations between controller "
-        "updates) has no counterpart, our controllers act every step", "reading: step size = dt"))
+    g.claims.append(
+        Claim(
+            "§6.3, Table 6.1",
+            "a smaller step size makes the imitation take longer (7 vs 10)",
+            f"time ratio step 7 / step 10: {thesis_ratios}",
+            f"reading 'step size = time step': scissor, region controller, {n_p} particles, {sim_seconds:g} s simulated "
+            f"on the reference driver: CPU {walls[1.0]:.2f} s ({steps[1.0]} steps) at dt 0.02, {walls[0.7]:.2f} s "
+            f"({steps[0.7]} steps) at dt 0.014 (ratio {ratio:.2f}; 10/7 = 1.43)",
+            Verdict.AGREE if ratio > 1.1 else Verdict.DISAGREE,
+            "the same simulated time takes 1/dt more steps of about the same cost; the thesis' ratios (1.48-1.57) "
+            "are close to 10/7, which supports this reading; the other reading (iterations between controller "
+            "updates) has no counterpart, our controllers act every step",
+            "reading: step size = dt",
+        )
+    )
     return [g]

@@ -29,16 +29,24 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent.parent)]
 
-from make.command_sequences import follower_sequences  # noqa: E402
-from make.commands import command_vectors  # noqa: E402
-from make.ctl import ctl_vectors  # noqa: E402
-from make.events import event_vectors  # noqa: E402
-from make.common import SECRET  # noqa: E402
-from make.fill import fill_vectors  # noqa: E402
-from make.route import route_vectors  # noqa: E402
-from make.state_records import state_vectors  # noqa: E402
+from make.command_sequences import follower_sequences
+from make.commands import command_vectors
+from make.common import SECRET
+from make.ctl import ctl_vectors
+from make.events import event_vectors
+from make.fill import fill_vectors
+from make.route import route_vectors
+from make.state_records import state_vectors
 
-__all__ = ["command_vectors", "ctl_vectors", "event_vectors", "fill_vectors", "follower_sequences", "route_vectors", "state_vectors"]
+__all__ = [
+    "command_vectors",
+    "ctl_vectors",
+    "event_vectors",
+    "fill_vectors",
+    "follower_sequences",
+    "route_vectors",
+    "state_vectors",
+]
 
 
 def main() -> None:

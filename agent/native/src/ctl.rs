@@ -72,7 +72,11 @@ pub fn decode(what: Option<&str>, payload: &[u8]) -> Option<Ctl> {
             if step > MAX_STEP {
                 return None;
             }
-            if code == 3 { Ctl::Clock(step) } else { Ctl::End(step) }
+            if code == 3 {
+                Ctl::Clock(step)
+            } else {
+                Ctl::End(step)
+            }
         }
         (5, 4) => {
             let id = u32::from_le_bytes(body.try_into().ok()?);

@@ -144,8 +144,13 @@ mod tests {
         assert_eq!((v["v"].as_u64(), v["id"].as_u64(), v["status"].as_str()), (Some(1), Some(7), Some("fell_behind")));
         assert_eq!((v["t_end"].clone(), v["msgs_received"].as_u64()), (Value::Null, Some(3)));
         assert_eq!(v.as_object().unwrap().len(), 20); // "v" and report.py FinalReport's 19 fields but the follower's
-        r.following = Some(Following { commands_accepted: 2, particle_class: 1, waypoint_index: 0, command_seq: 5,
-                                       first_command_at: Some(2.5) });
+        r.following = Some(Following {
+            commands_accepted: 2,
+            particle_class: 1,
+            waypoint_index: 0,
+            command_seq: 5,
+            first_command_at: Some(2.5),
+        });
         let v = r.to_json();
         assert_eq!((v["command_seq"].as_i64(), v["first_command_at"].as_f64()), (Some(5), Some(2.5)));
         assert_eq!(v.as_object().unwrap().len(), 25);

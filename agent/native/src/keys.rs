@@ -59,7 +59,12 @@ pub fn cell_key(run: &str, c: (i64, i64)) -> String {
 /// What follows `fluidswarm/<run>/<kind>/` in `key`, None for a key of another run or kind (the exact
 /// parsers below take their chunks from it; no allocation: they run on every received message).
 fn after_kind<'a>(run: &str, kind: &str, key: &'a str) -> Option<&'a str> {
-    key.strip_prefix(PREFIX)?.strip_prefix('/')?.strip_prefix(run)?.strip_prefix('/')?.strip_prefix(kind)?.strip_prefix('/')
+    key.strip_prefix(PREFIX)?
+        .strip_prefix('/')?
+        .strip_prefix(run)?
+        .strip_prefix('/')?
+        .strip_prefix(kind)?
+        .strip_prefix('/')
 }
 
 pub fn alive_key(run: &str, id: u32) -> String {

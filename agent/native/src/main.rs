@@ -82,7 +82,11 @@ fn main() {
         _ => fail("usage: fluidswarm-agent --spec JSON (the agent's start-up parameters, agent/protocol/spec.py)"),
     };
     let spec = AgentSpec::from_json(&text).unwrap_or_else(|e| fail(&e));
-    let secret_hex = if spec.secret.is_empty() { std::env::var("FLUIDSWARM_SECRET").unwrap_or_default() } else { spec.secret.clone() };
+    let secret_hex = if spec.secret.is_empty() {
+        std::env::var("FLUIDSWARM_SECRET").unwrap_or_default()
+    } else {
+        spec.secret.clone()
+    };
     let controller = if secret_hex.is_empty() {
         None
     } else {

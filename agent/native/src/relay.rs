@@ -10,12 +10,17 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::RwLock;
 #[cfg(feature = "net")]
 use std::sync::Mutex;
+use std::sync::RwLock;
 
 #[cfg(feature = "net")]
-use zenoh::{key_expr::KeyExpr, qos::CongestionControl, sample::{Locality, Sample}, Session, Wait};
+use zenoh::{
+    key_expr::KeyExpr,
+    qos::CongestionControl,
+    sample::{Locality, Sample},
+    Session, Wait,
+};
 
 use crate::keys;
 use crate::wire;
@@ -38,7 +43,12 @@ pub struct RelayTable {
 
 impl RelayTable {
     pub fn new(run: &str) -> RelayTable {
-        RelayTable { run: run.to_string(), ids: RwLock::default(), cell: RwLock::default(), rejected: Default::default() }
+        RelayTable {
+            run: run.to_string(),
+            ids: RwLock::default(),
+            cell: RwLock::default(),
+            rejected: Default::default(),
+        }
     }
 
     /// Relay agent `id`'s states from now on, on cells of side `cell` (the run's smoothing length).
@@ -94,7 +104,12 @@ impl RelayTable {
 
     /// `length=<n> version=<n> value=<n> id=<n> key=<n>`
     pub fn rejected_line(&self) -> String {
-        REASONS.iter().zip(&self.rejected).map(|(r, n)| format!("{r}={}", n.load(Ordering::Relaxed))).collect::<Vec<_>>().join(" ")
+        REASONS
+            .iter()
+            .zip(&self.rejected)
+            .map(|(r, n)| format!("{r}={}", n.load(Ordering::Relaxed)))
+            .collect::<Vec<_>>()
+            .join(" ")
     }
 }
 

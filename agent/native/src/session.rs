@@ -15,7 +15,8 @@ pub fn env_credentials() -> (String, String) {
 
 pub fn client_config(endpoints: &[String], user: &str, password: &str) -> Result<Config, String> {
     let mut conf = Config::default();
-    let set = |conf: &mut Config, key: &str, value: String| conf.insert_json5(key, &value).map_err(|e| format!("{key}: {e}"));
+    let set =
+        |conf: &mut Config, key: &str, value: String| conf.insert_json5(key, &value).map_err(|e| format!("{key}: {e}"));
     set(&mut conf, "mode", "\"client\"".into())?;
     set(&mut conf, "connect/endpoints", serde_json::to_string(endpoints).map_err(|e| e.to_string())?)?;
     // Retry for up to 2 minutes, not forever: 300 processes starting at once overwhelm a router's accept

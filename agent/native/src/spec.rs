@@ -46,8 +46,24 @@ pub struct AgentSpec {
 }
 
 const FIELDS: &[&str] = &[
-    "run", "id", "connect", "steps", "initial", "control", "params", "timeout", "start_timeout", "drop_out",
-    "secret", "join", "state_key_ids", "mode", "rate", "max_age", "neighbours", "robot",
+    "run",
+    "id",
+    "connect",
+    "steps",
+    "initial",
+    "control",
+    "params",
+    "timeout",
+    "start_timeout",
+    "drop_out",
+    "secret",
+    "join",
+    "state_key_ids",
+    "mode",
+    "rate",
+    "max_age",
+    "neighbours",
+    "robot",
 ];
 
 impl AgentSpec {
@@ -79,7 +95,8 @@ impl AgentSpec {
             Some(s) if s <= u32::MAX as u64 => s as u32,
             _ => return err(format!("steps must be a non-negative integer, got {}", obj["steps"])),
         };
-        let initial: Vec<f64> = obj["initial"].as_array().map(|a| a.iter().filter_map(number).collect()).unwrap_or_default();
+        let initial: Vec<f64> =
+            obj["initial"].as_array().map(|a| a.iter().filter_map(number).collect()).unwrap_or_default();
         if initial.len() != 4 || obj["initial"].as_array().map(|a| a.len()) != Some(4) {
             return err(format!("initial must be [x, y, vx, vy] finite numbers, got {}", obj["initial"]));
         }

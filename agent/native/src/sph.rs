@@ -217,8 +217,7 @@ pub fn step_particle(own: &State, neighbours: &[State], control: &Control, param
     new[VX] = own[VX] + params.dt * acc_x;
     new[VY] = own[VY] + params.dt * acc_y;
     if robot.kind == Kind::Unicycle {
-        let moved =
-            robot::unicycle_step(own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt);
+        let moved = robot::unicycle_step(own[X], own[Y], own[HEADING], own[SPEED], new[VX], new[VY], robot, params.dt);
         for (k, v) in [X, Y, VX, VY, HEADING, SPEED].into_iter().zip(moved) {
             new[k] = v;
         }

@@ -48,9 +48,9 @@ fn event_of(v: &Value) -> Event {
         "started" => EventKind::Started,
         "fell_behind" => EventKind::FellBehind,
         "rejoined" => EventKind::Rejoined { from_step: u32_of(&v["from_step"]) },
-        "command_received" => EventKind::CommandReceived {
-            seconds_since_session_open: v["seconds_since_session_open"].as_f64().unwrap(),
-        },
+        "command_received" => {
+            EventKind::CommandReceived { seconds_since_session_open: v["seconds_since_session_open"].as_f64().unwrap() }
+        }
         "neighbour_timeout" => EventKind::NeighbourTimeout {
             neighbours: v["neighbours"].as_array().unwrap().iter().map(u32_of).collect(),
             last_seen: v.get("last_seen").map(|rows| {

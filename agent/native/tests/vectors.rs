@@ -13,7 +13,6 @@ use fluidswarm_agent::sph::Control;
 use fluidswarm_agent::wire;
 use serde_json::Value;
 
-
 /// An f64 field: the same bits (so -0.0 differs from 0.0); ints in the files stand for their float.
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))

@@ -13,16 +13,26 @@ from coordinator.control.route import CommandFollower
 
 from .common import SECRET, control_list, framed, reserialised, sign
 
+
 def spec(agent_id: int):
-    return SimpleNamespace(secret=SECRET.hex(), id=agent_id,
-                           static_control=lambda: Control(1.0, 2.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0))
+    return SimpleNamespace(
+        secret=SECRET.hex(), id=agent_id, static_control=lambda: Control(1.0, 2.0, 0.5, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0)
+    )
 
 
 def follower_sequences(commands: dict) -> list:
     def cmd(seq, n=10, shares=(1.0, 1.0, 1.0), gesture="g"):
-        classes = tuple(ParticleClass(f"c{k}", s, (Waypoint(5.0 * k, 1.0, 0.5, 2.0, 3.0, beta=4.0 + k),
-                                                     Waypoint(5.0 * k + 10.0, 2.0, 0.5, 2.0, 3.0, mu=0.5)))
-                        for k, s in enumerate(shares))
+        classes = tuple(
+            ParticleClass(
+                f"c{k}",
+                s,
+                (
+                    Waypoint(5.0 * k, 1.0, 0.5, 2.0, 3.0, beta=4.0 + k),
+                    Waypoint(5.0 * k + 10.0, 2.0, 0.5, 2.0, 3.0, mu=0.5),
+                ),
+            )
+            for k, s in enumerate(shares)
+        )
         return GestureCommand(seq, gesture, n, classes, beta=2.0, mu=0.0, extra={"n": 1})
 
     c1 = cmd(1).encode(SECRET)
@@ -52,13 +62,43 @@ def follower_sequences(commands: dict) -> list:
     forged = bytearray(c4)
     forged[20] ^= 1
     steps = [
-        ("offer", c1), ("offer", c1), ("control", (0.0, 0.0)), ("offer", c2), ("offer", c1), ("offer", c1),
-        ("offer", c2_reserialised), ("offer", c2_equal), ("offer", c2_other), ("offer", c2), ("control", (10.0, 1.0)),
-        ("control", (10.0, 1.0)), ("offer", bytes(forged)), ("offer", b"{}"), ("offer", commands["v_2"]),
-        ("offer", c3), ("control", (5.0, 1.0)), ("offer", c4), ("offer", c5), ("offer", c4), ("offer", c3),
-        ("control", (10.1, 1.0)), ("offer", c5), ("offer", c3), ("control", (15.0, 1.0)), ("control", (100.0, 100.0)),
-        ("offer", c6), ("offer", c6_reserialised), ("offer", c6_equal), ("offer", c6_other), ("control", (5.0, 5.0)), ("control", (25.0, 10.0)), ("control", (10.0, 9.0)),
-        ("control", (20.0, 20.0)), ("offer", c5), ("offer", c7), ("control", (0.0, 1.0)),
+        ("offer", c1),
+        ("offer", c1),
+        ("control", (0.0, 0.0)),
+        ("offer", c2),
+        ("offer", c1),
+        ("offer", c1),
+        ("offer", c2_reserialised),
+        ("offer", c2_equal),
+        ("offer", c2_other),
+        ("offer", c2),
+        ("control", (10.0, 1.0)),
+        ("control", (10.0, 1.0)),
+        ("offer", bytes(forged)),
+        ("offer", b"{}"),
+        ("offer", commands["v_2"]),
+        ("offer", c3),
+        ("control", (5.0, 1.0)),
+        ("offer", c4),
+        ("offer", c5),
+        ("offer", c4),
+        ("offer", c3),
+        ("control", (10.1, 1.0)),
+        ("offer", c5),
+        ("offer", c3),
+        ("control", (15.0, 1.0)),
+        ("control", (100.0, 100.0)),
+        ("offer", c6),
+        ("offer", c6_reserialised),
+        ("offer", c6_equal),
+        ("offer", c6_other),
+        ("control", (5.0, 5.0)),
+        ("control", (25.0, 10.0)),
+        ("control", (10.0, 9.0)),
+        ("control", (20.0, 20.0)),
+        ("offer", c5),
+        ("offer", c7),
+        ("control", (0.0, 1.0)),
     ]
     out = []
     for agent_id in (0, 4, 9, 12):
@@ -73,7 +113,13 @@ def follower_sequences(commands: dict) -> list:
                 c = f.control(state, 0)
                 report = f.report()
                 assert (report.pop("first_command_at") is None) == (f.accepted == 0)
-                seq.append({"control": list(arg), "expect": control_list(c), "particle_class": f.particle_class,
-                            "report": report})
+                seq.append(
+                    {
+                        "control": list(arg),
+                        "expect": control_list(c),
+                        "particle_class": f.particle_class,
+                        "report": report,
+                    }
+                )
         out.append({"agent_id": agent_id, "steps": seq})
     return out

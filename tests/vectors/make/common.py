@@ -48,17 +48,28 @@ def reserialised(body: dict, **dumps) -> bytes:
 def relaid(body: dict, v=1, sig: str | None = None) -> bytes:
     """The envelope as a JSON object laid out otherwise (keys reversed, indented), signed over the canonical
     body: what a v1 receiver once accepted, now no envelope (the signature must cover the bytes sent)."""
-    env = {"sig": sig_raw(_canonical(body)).decode() if sig is None else sig,
-           "body": dict(reversed(list(body.items()))), "v": v}
+    env = {
+        "sig": sig_raw(_canonical(body)).decode() if sig is None else sig,
+        "body": dict(reversed(list(body.items()))),
+        "v": v,
+    }
     return json.dumps(env, indent=1, ensure_ascii=False).encode("utf-8")
 
 
 STANDARD = GestureCommand(
-    seq=1, gesture="v_sign", n_agents=30,
-    classes=(ParticleClass("left", 1.0, (Waypoint(10.0, 12.5, 1.0, 3.0, 4.0, beta=5.0),
-                                         Waypoint(20.0, 25.0, 0.5, 2.0, 6.0, mu=0.25))),
-             ParticleClass("right", 2.0, (Waypoint(40.0, 12.5, 1.0, 3.0, 4.0),))),
-    beta=2.0, mu=0.0, extra={"controller": "region", "ellipses": [[1.5, 2.0, 0.3, -0.7]]})
+    seq=1,
+    gesture="v_sign",
+    n_agents=30,
+    classes=(
+        ParticleClass(
+            "left", 1.0, (Waypoint(10.0, 12.5, 1.0, 3.0, 4.0, beta=5.0), Waypoint(20.0, 25.0, 0.5, 2.0, 6.0, mu=0.25))
+        ),
+        ParticleClass("right", 2.0, (Waypoint(40.0, 12.5, 1.0, 3.0, 4.0),)),
+    ),
+    beta=2.0,
+    mu=0.0,
+    extra={"controller": "region", "ellipses": [[1.5, 2.0, 0.3, -0.7]]},
+)
 
 
 def body(**changes) -> dict:

@@ -17,9 +17,17 @@ def expected(msg) -> dict | None:
 
 
 def ctl_vectors() -> list:
-    valid = [("start", Start()), ("stop", Stop()), ("clock_0", Clock(0)), ("clock_77777", Clock(77777)),
-             ("clock_max", Clock(MAX_STEP)), ("end_3", End(3)), ("gone_0", Gone(0)), ("gone_99", Gone(99)),
-             ("gone_max", Gone(MAX_AGENT))]
+    valid = [
+        ("start", Start()),
+        ("stop", Stop()),
+        ("clock_0", Clock(0)),
+        ("clock_77777", Clock(77777)),
+        ("clock_max", Clock(MAX_STEP)),
+        ("end_3", End(3)),
+        ("gone_0", Gone(0)),
+        ("gone_99", Gone(99)),
+        ("gone_max", Gone(MAX_AGENT)),
+    ]
     cases = [(name, kind_of(m).what, encode_ctl(m)) for name, m in valid]
     clock = encode_ctl(Clock(12))
     cases += [
@@ -47,5 +55,7 @@ def ctl_vectors() -> list:
         ("gone_short", "gone", encode_ctl(Gone(5))[:-1]),
         ("gone_as_u64", "gone", b"\x01\x05" + struct.pack("<Q", 5)),
     ]
-    return [{"name": name, "what": what, "payload_hex": data.hex(), "expect": expected(decode_ctl(what, data))}
-            for name, what, data in cases]
+    return [
+        {"name": name, "what": what, "payload_hex": data.hex(), "expect": expected(decode_ctl(what, data))}
+        for name, what, data in cases
+    ]

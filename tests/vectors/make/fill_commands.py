@@ -8,6 +8,7 @@ from agent.protocol.command import MAX_RINGS, MAX_VERTICES, _canonical
 from .common import SECRET, body, one_class, relaid, reserialised, sign, sign_raw
 from .shapes import ZONE, fill, photo_command, polygon, raw_fill, square
 
+
 def fill_command_cases() -> list:
     photo = photo_command()
     assert photo.fill is not None and len(photo.fill.rings) > 1
@@ -18,22 +19,37 @@ def fill_command_cases() -> list:
         ("fill_photo_envelope_relaid", relaid(photo.body())),
         ("valid_fill_ints_and_exotic_floats", sign(exact)),
         ("valid_fill_ints_and_exotic_floats_indented", sign_raw(reserialised(exact, indent=1))),
-        ("valid_fill_float_other_spellings",  # the same values as valid_fill_ints_and_exotic_floats
-         sign_raw(reserialised(exact, indent=1).replace(b"12.3456", b"1234.56e-2").replace(b"1e-05", b"0.00001000"))),
+        (
+            "valid_fill_float_other_spellings",  # the same values as valid_fill_ints_and_exotic_floats
+            sign_raw(reserialised(exact, indent=1).replace(b"12.3456", b"1234.56e-2").replace(b"1e-05", b"0.00001000")),
+        ),
         ("valid_fill_hole", sign(body(fill=fill(rings=[square(0.0, 0.0, 10.0), square(4.0, 4.0, 2.0)])))),
-        ("valid_fill_rings_touch_at_a_vertex",
-         sign(body(fill=fill(rings=[square(0.0, 0.0, 1.0), square(1.0, 1.0, 1.0)])))),
-        ("valid_fill_collinear_overlap",  # a spike back along an edge, as pixel contours have
-         sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [2.0, 0.0], [2.0, 3.0]]])))),
-        ("valid_fill_vertex_on_an_edge",
-         sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, 0.0], [3.0, -1.0], [1.0, -1.0]]])))),
-        ("valid_fill_duplicate_vertex", sign(body(fill=fill(rings=[[[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])))),
+        (
+            "valid_fill_rings_touch_at_a_vertex",
+            sign(body(fill=fill(rings=[square(0.0, 0.0, 1.0), square(1.0, 1.0, 1.0)]))),
+        ),
+        (
+            "valid_fill_collinear_overlap",  # a spike back along an edge, as pixel contours have
+            sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [2.0, 0.0], [2.0, 3.0]]]))),
+        ),
+        (
+            "valid_fill_vertex_on_an_edge",
+            sign(body(fill=fill(rings=[[[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]], [[2.0, 0.0], [3.0, -1.0], [1.0, -1.0]]]))),
+        ),
+        (
+            "valid_fill_duplicate_vertex",
+            sign(body(fill=fill(rings=[[[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]]))),
+        ),
         ("valid_fill_rings_32", sign(body(fill=fill(rings=triangles[:MAX_RINGS])))),
         ("valid_fill_vertices_512", sign(body(fill=fill(rings=[polygon(MAX_VERTICES)])))),
-        ("valid_fill_bounds", sign(body(fill=fill(rings=[[[-1e6, -1e6], [1e6, -1e6], [0, 1000000]]], alpha=10000, s=1e6)))),
-        ("valid_fill_small_ints_alpha_s_zero",
-         sign(body(fill=fill(rings=[[[-1, 0], [1, 0], [0, 1]]], alpha=0, s=0.0)))),
-
+        (
+            "valid_fill_bounds",
+            sign(body(fill=fill(rings=[[[-1e6, -1e6], [1e6, -1e6], [0, 1000000]]], alpha=10000, s=1e6))),
+        ),
+        (
+            "valid_fill_small_ints_alpha_s_zero",
+            sign(body(fill=fill(rings=[[[-1, 0], [1, 0], [0, 1]]], alpha=0, s=0.0))),
+        ),
         ("valid_fill_zones", sign(body(fill=fill(zones=[ZONE, dict(ZONE, x=-4, ux=1, uy=0, beta=5, mu=0)])))),
         ("valid_fill_zones_empty", sign(body(fill=fill(zones=[])))),
         ("valid_fill_zones_16", sign(body(fill=fill(zones=[dict(ZONE, x=float(k)) for k in range(16)])))),
@@ -51,11 +67,15 @@ def fill_command_cases() -> list:
         ("fill_zone_x_nan", sign_raw(_canonical(body(fill=fill(zones=[dict(ZONE, x="@@")]))).replace(b'"@@"', b"NaN"))),
         ("fill_crossing_rings", sign(body(fill=fill(rings=[square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)])))),
         ("fill_bow_tie", sign(body(fill=fill(rings=[[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]])))),
-        ("fill_ring_crosses_itself_far_apart",
-         sign(body(fill=fill(rings=[[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [5.0, -5.0], [0.0, 10.0]]])))),
+        (
+            "fill_ring_crosses_itself_far_apart",
+            sign(body(fill=fill(rings=[[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [5.0, -5.0], [0.0, 10.0]]]))),
+        ),
         ("fill_vertices_513", sign(body(fill=fill(rings=[polygon(MAX_VERTICES + 1)])))),
-        ("fill_vertices_513_over_two_rings",
-         sign(body(fill=fill(rings=[polygon(300, radius=10.0), polygon(MAX_VERTICES + 1 - 300, radius=5.0)])))),
+        (
+            "fill_vertices_513_over_two_rings",
+            sign(body(fill=fill(rings=[polygon(300, radius=10.0), polygon(MAX_VERTICES + 1 - 300, radius=5.0)]))),
+        ),
         ("fill_rings_33", sign(body(fill=fill(rings=triangles)))),
         ("fill_rings_empty", sign(body(fill=fill(rings=[])))),
         ("fill_rings_not_list", sign(body(fill=fill(rings={"a": square(0.0, 0.0, 1.0)})))),
@@ -73,7 +93,7 @@ def fill_command_cases() -> list:
         ("fill_vertex_int_beyond_1e6", sign(body(fill=fill(rings=[[[0, 0], [1, 0], [0, -1000001]]])))),
         ("fill_vertex_int_2_1023", sign(body(fill=fill(rings=[[[0, 0], [2**1023, 0], [0, 1]]])))),
         ("fill_vertex_int_2_1024", sign(body(fill=fill(rings=[[[0, 0], [2**1024, 0], [0, 1]]])))),
-        ("fill_vertex_int_minus_10_400", sign(body(fill=fill(rings=[[[0, 0], [1, 0], [0, -10**400]]])))),
+        ("fill_vertex_int_minus_10_400", sign(body(fill=fill(rings=[[[0, 0], [1, 0], [0, -(10**400)]]])))),
         ("fill_vertex_nan", raw_fill(b"NaN")),
         ("fill_vertex_infinity", raw_fill(b"-Infinity")),
         ("fill_vertex_1e400", raw_fill(b"1e400")),
@@ -88,5 +108,5 @@ def fill_command_cases() -> list:
         ("fill_s_negative", sign(body(fill=fill(s=-1e-300)))),
         ("fill_s_missing", sign(body(fill={"rings": [square(0.0, 0.0, 1.0)], "alpha": 80.0}))),
         ("beta_int_2_1024", sign(body(beta=2**1024))),  # _num refuses an int float() cannot hold
-        ("share_int_minus_2_1100", sign(body(classes=[one_class(share=-2**1100)]))),
+        ("share_int_minus_2_1100", sign(body(classes=[one_class(share=-(2**1100))]))),
     ]

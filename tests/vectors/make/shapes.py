@@ -11,9 +11,14 @@ from coordinator.control.imitation_setup import prepare
 
 from .common import PHOTO, body, sign_raw
 
+
 def fill_list(fill: Fill) -> dict:
-    return {"rings": [[list(v) for v in ring] for ring in fill.rings], "alpha": fill.alpha, "s": fill.s,
-            "zones": [zone_list(z) for z in fill.zones]}
+    return {
+        "rings": [[list(v) for v in ring] for ring in fill.rings],
+        "alpha": fill.alpha,
+        "s": fill.s,
+        "zones": [zone_list(z) for z in fill.zones],
+    }
 
 
 def zone_list(z: Zone) -> list:
@@ -29,8 +34,10 @@ def square(x0, y0, side) -> list:
 
 def polygon(n: int, cx=0.0, cy=0.0, radius=10.0) -> list:
     """A regular n-gon, vertices rounded to 0.1 mm as the coordinator writes them."""
-    return [[round(cx + radius * math.cos(2 * math.pi * k / n), 4), round(cy + radius * math.sin(2 * math.pi * k / n), 4)]
-            for k in range(n)]
+    return [
+        [round(cx + radius * math.cos(2 * math.pi * k / n), 4), round(cy + radius * math.sin(2 * math.pi * k / n), 4)]
+        for k in range(n)
+    ]
 
 
 def photo_command(n_agents: int = 16):

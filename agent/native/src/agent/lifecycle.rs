@@ -18,7 +18,6 @@ use crate::sph::{X, Y};
 use crate::wire;
 
 impl Agent {
-
     pub fn run(&mut self) -> i32 {
         let code = match self.run_inner() {
             Ok(()) => {
@@ -40,7 +39,8 @@ impl Agent {
     }
 
     fn run_inner(&mut self) -> Result<(), Halt> {
-        let declared = self.declare_fixed().and_then(|_| self.declare_state_key()).and_then(|_| self.update_subscriptions());
+        let declared =
+            self.declare_fixed().and_then(|_| self.declare_state_key()).and_then(|_| self.update_subscriptions());
         if let Err(e) = declared {
             eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
             return Err(Halt::Stop);
@@ -92,7 +92,10 @@ impl Agent {
         let (x0, y0) = (self.state[X], self.state[Y]);
         for &(j, x, y) in &self.spec.neighbours {
             let c = keys::cell_of(x, y, self.cell);
-            if j != self.spec.id && keys::cell_distance(x0, y0, c, self.cell) <= self.r_sub && !self.latest.contains_key(&j) {
+            if j != self.spec.id
+                && keys::cell_distance(x0, y0, c, self.cell) <= self.r_sub
+                && !self.latest.contains_key(&j)
+            {
                 self.latest.insert(j, (-1, f64::NAN, f64::NAN));
             }
         }
@@ -137,7 +140,11 @@ impl Agent {
             let msg = {
                 let mut inbox = shared.inbox.lock().unwrap_or_else(|e| e.into_inner());
                 if inbox.queue.is_empty() {
-                    inbox = shared.bell.wait_timeout(inbox, Duration::from_millis(250)).unwrap_or_else(|e| e.into_inner()).0;
+                    inbox = shared
+                        .bell
+                        .wait_timeout(inbox, Duration::from_millis(250))
+                        .unwrap_or_else(|e| e.into_inner())
+                        .0;
                     inbox.rung = false;
                 }
                 inbox.queue.pop_front()

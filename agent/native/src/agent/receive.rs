@@ -13,7 +13,6 @@ use crate::sph::{X, Y};
 use crate::wire;
 
 impl Agent {
-
     pub(super) fn handle(&mut self, msg: Msg) -> Result<(), Halt> {
         match msg {
             Msg::State(data, on_key) => self.handle_state(&data, on_key),

@@ -69,11 +69,8 @@ impl Agent {
     /// A plain query on our own final key: no queryable serves it, so the router answers at once (a liveliness
     /// query would walk every token of the swarm in the router, N times at the end of a run).
     pub(super) fn flush(&self) {
-        if let Ok(replies) = self
-            .session
-            .get(keys::final_key(&self.spec.run, self.spec.id))
-            .timeout(Duration::from_secs(1))
-            .wait()
+        if let Ok(replies) =
+            self.session.get(keys::final_key(&self.spec.run, self.spec.id)).timeout(Duration::from_secs(1)).wait()
         {
             while replies.recv().is_ok() {}
         }

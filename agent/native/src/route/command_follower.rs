@@ -3,7 +3,6 @@
 
 use std::collections::HashSet;
 
-
 use super::{class_of, Follower};
 use crate::command::{self, GestureCommand};
 use crate::final_report::Following;

@@ -54,7 +54,9 @@ pub(super) fn parse_neighbours(v: Option<&Value>) -> Result<Vec<(u32, f64, f64)>
         .map(|row| match row.as_array().map(|a| a.as_slice()) {
             Some([id, x, y]) => match (id.as_u64(), number(x), number(y)) {
                 (Some(i), Some(x), Some(y)) if i < (1u64 << 31) => Ok((i as u32, x, y)),
-                _ => err(format!("neighbours entry must be [id, x, y] with an id in [0, 2^31) and finite x, y, got {row}")),
+                _ => err(format!(
+                    "neighbours entry must be [id, x, y] with an id in [0, 2^31) and finite x, y, got {row}"
+                )),
             },
             _ => err(format!("neighbours entry must be [id, x, y], got {row}")),
         })
@@ -103,7 +105,11 @@ pub(super) fn parse_params(v: Option<&Value>) -> Result<Params, String> {
             Some(v) if v.len() == 4 && d.as_array().map(|a| a.len()) == Some(4) && v[0] < v[1] && v[2] < v[3] => {
                 p.domain = [v[0], v[1], v[2], v[3]]
             }
-            _ => return err(format!("params.domain must be [xmin, xmax, ymin, ymax] with xmin < xmax, ymin < ymax, got {d}")),
+            _ => {
+                return err(format!(
+                    "params.domain must be [xmin, xmax, ymin, ymax] with xmin < xmax, ymin < ymax, got {d}"
+                ))
+            }
         }
     }
     if let Some(b) = obj.get("border") {
@@ -182,8 +188,10 @@ pub(super) fn parse_robot(v: Option<&Value>, fluid_v_max: f64) -> Result<Robot, 
         return err(format!("robot.radius must be > 0 for a {:?} robot, got {}", r.kind, r.radius));
     }
     if r.kind != Kind::Point && r.top_particle_speed() > fluid_v_max {
-        return err(format!("robot.v_max: the robot's point can move {} m/s, more than the fluid's v_max {fluid_v_max} m/s",
-                           r.top_particle_speed()));
+        return err(format!(
+            "robot.v_max: the robot's point can move {} m/s, more than the fluid's v_max {fluid_v_max} m/s",
+            r.top_particle_speed()
+        ));
     }
     Ok(r)
 }
