@@ -9,6 +9,7 @@ N × ~25 queries that each walk every token in the router (they stalled N = 1000
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from agent.sph.params import SPHParams
@@ -20,7 +21,7 @@ def reach(params: SPHParams) -> float:
     return params.support + 10.0 * params.max_step_displacement + 1.5 * params.h
 
 
-def initial_neighbours(ids, positions: np.ndarray, params: SPHParams) -> dict[int, list[list[float]]]:
+def initial_neighbours(ids, positions: npt.ArrayLike, params: SPHParams) -> dict[int, list[list[float]]]:
     """For each id, [[j, x_j, y_j], ...] of the other agents within `reach`; positions[k] is ids[k]'s (x, y),
     written exactly as in that agent's own spec so both compute the same cell."""
     ids = [int(i) for i in ids]

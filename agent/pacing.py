@@ -53,17 +53,17 @@ class Pacer:
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
-        self._states = self.session.declare_subscriber(
+        self._states = states = self.session.declare_subscriber(
             keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
         )
-        threading.Thread(target=self._clock, daemon=True).start()
+        threading.Thread(target=self._clock, args=(states,), daemon=True).start()
 
     def stop(self) -> None:
         self._stop.set()
         if self._states is not None:
             try:
                 self._states.undeclare()
-            except Exception:
+            except Exception:  # noqa: BLE001, S110  # undeclaring on a session that is closing may fail; nothing left to do
                 pass
 
     def mark_start(self, dt: float) -> None:
@@ -104,7 +104,7 @@ class Pacer:
             self.step_times[step] = now
             self.max_step = max(self.max_step, step)
 
-    def _clock(self) -> None:
+    def _clock(self, states: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]]) -> None:
         """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
 
         Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
@@ -117,9 +117,9 @@ class Pacer:
         # ~30 steps/s (the compiled agents run faster than that).
         while not self._stop.wait(self.clock_period):
             try:
-                while (sample := self._states.try_recv()) is not None:
+                while (sample := states.try_recv()) is not None:
                     self._on_state(sample)
-            except Exception:  # the session is closing
+            except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                 return
             now = time.monotonic()
             with self.swarm.changed:
@@ -135,7 +135,7 @@ class Pacer:
             for j in gone:
                 try:
                     self.session.put(*ctl_message(self.run, Gone(j)), congestion_control=zenoh.CongestionControl.BLOCK)
-                except Exception:  # the session is closing
+                except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
             steps = [s for j, (s, t) in list(self.agent_steps.items()) if j in alive and now - t < self.agent_timeout]
             if steps:
@@ -152,7 +152,7 @@ class Pacer:
                     )
                     if self.end_step is not None:
                         self.end_at(self.end_step)
-                except Exception:  # the session is closing
+                except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
 
     def longest_stall(self) -> float:

@@ -71,7 +71,7 @@ class RecorderProcess:
             stdout=out,
             stderr=self._stderr,
             stdin=subprocess.DEVNULL,
-            preexec_fn=die_with_parent,
+            preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
             env=dict(os.environ, **self.env),
         )
         deadline = time.monotonic() + timeout

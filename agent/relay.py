@@ -71,6 +71,7 @@ class StateRelay:
         if peek[0] != agent_id:
             self._reject(REJECT_ID)
             return
+        assert self.cell is not None  # set by add(), before any agent's id key is known
         c = keys.cell_of(peek[1], peek[2], self.cell)
         cell_key = self._cell_keys.get(c)
         if cell_key is None:

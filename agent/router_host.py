@@ -20,7 +20,7 @@ import zenoh
 from agent.protocol.access import LaunchAccess
 from agent.protocol.session import client_config, router_config, router_config_dict
 from agent.relay import StateRelay
-from agent.router_process import RouterProcess
+from agent.router_process import CompiledRelay, RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
 AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
@@ -70,6 +70,7 @@ class RouterHost:
                 self.process = RouterProcess(
                     run, router_config_dict(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
                 )
+                assert self.access.own is not None  # embedded access always has the launcher's credential
                 conf = client_config([self.endpoint], *astuple(self.access.own))
             elif not connect:
                 conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
@@ -81,7 +82,7 @@ class RouterHost:
             self.access.opened()  # the router has read the users file (or failed to)
         # Under per-process rights agents put their states on their id keys and the relay puts them on the
         # cells: the compiled router's own, else (a client of another host's router) one on this session
-        self.relay = None
+        self.relay: CompiledRelay | StateRelay | None = None
         if self.process is not None:
             self.relay = self.process.relay
         elif self.access.state_key_ids:

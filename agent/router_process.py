@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+from typing import IO
 
 from agent.executable import router_executable
 
@@ -44,7 +45,7 @@ class RouterProcess:
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
             with os.fdopen(fd, "w") as f:
                 json.dump(settings, f)
-            errors = open(os.path.join(private, "stderr"), "w+")
+            errors = open(os.path.join(private, "stderr"), "w+")  # noqa: SIM115  # closed in the finally below
             self.proc = subprocess.Popen(
                 [router_executable(), run],
                 env=dict(os.environ, **{CONFIG_ENV: path}),
@@ -56,8 +57,8 @@ class RouterProcess:
             )
             try:
                 # Bounded: a router stuck opening reads no stdin, so the launcher's end would not end it.
-                ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT)
-                first = self.proc.stdout.readline().strip() if ready else ""
+                ready, _, _ = select.select([self._stdout], [], [], START_TIMEOUT)
+                first = self._stdout.readline().strip() if ready else ""
                 if first != "ready":
                     self._kill()
                     errors.seek(0)
@@ -79,21 +80,32 @@ class RouterProcess:
         self._last_rejected: dict[str, int] = {}  # the relay's counts when the router closed
         self.relay = CompiledRelay(self)
 
+    # Popen(stdin=PIPE, stdout=PIPE): both pipes exist as long as the process object does.
+    @property
+    def _stdin(self) -> IO[str]:
+        assert self.proc.stdin is not None
+        return self.proc.stdin
+
+    @property
+    def _stdout(self) -> IO[str]:
+        assert self.proc.stdout is not None
+        return self.proc.stdout
+
     def _kill(self) -> None:
         """End the router now (it failed to start, or to close), and let go of its pipes."""
         if self.proc.poll() is None:
             self.proc.kill()
         self.proc.wait()
-        self.proc.stdin.close()
-        self.proc.stdout.close()
+        self._stdin.close()
+        self._stdout.close()
 
     def ask(self, request: str) -> str:
         """Send one request line, return the router's answer line."""
         with self._lock:
             try:
-                self.proc.stdin.write(request + "\n")
-                self.proc.stdin.flush()
-                answer = self.proc.stdout.readline()
+                self._stdin.write(request + "\n")
+                self._stdin.flush()
+                answer = self._stdout.readline()
             except (BrokenPipeError, ValueError):
                 answer = ""
         if not answer:
@@ -102,7 +114,7 @@ class RouterProcess:
 
     def rejected(self) -> dict[str, int]:
         """Reason -> states the relay dropped so far; once the router is closed, its last counts."""
-        if self.proc.stdin.closed:
+        if self._stdin.closed:
             return dict(self._last_rejected)
         answer = self.ask("rejected")
         words = answer.split()
@@ -113,14 +125,14 @@ class RouterProcess:
     def close(self) -> None:
         """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent. The
         relay's last counts stay readable (`rejected`)."""
-        if self.proc.poll() is None and not self.proc.stdin.closed:
+        if self.proc.poll() is None and not self._stdin.closed:
             try:
                 self._last_rejected = self.rejected()
             except RouterFailed:
                 pass
         with self._lock:
             try:
-                self.proc.stdin.close()
+                self._stdin.close()
             except (BrokenPipeError, OSError):
                 pass
         try:

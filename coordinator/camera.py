@@ -156,7 +156,8 @@ class CommandSwitch:
     def __init__(self, rule: ChangeRule = ChangeRule()):
         self.rule = rule
         self.kalman = BoxKalman()
-        self.candidate, self.seen = None, 0
+        self.candidate: str | None = None
+        self.seen = 0
         self.label: str | None = None  # of the last command
         self.mask: np.ndarray | None = None
         self.box: np.ndarray | None = None  # tracked (cx, cy, w, h) at the last command
@@ -176,6 +177,7 @@ class CommandSwitch:
             return "gesture"
         if now - self.at < self.rule.min_seconds:
             return None
+        assert self.mask is not None and self.box is not None  # set with the label, by commit()
         if obs.mask.shape == self.mask.shape and _iou(obs.mask, self.mask) < self.rule.silhouette_iou:
             return "silhouette"
         size = max(self.box[2], self.box[3], 1.0)
@@ -186,6 +188,7 @@ class CommandSwitch:
     def commit(self, obs: Observation, now: float) -> None:
         """A command for `obs` went out."""
         self.label, self.mask, self.at = obs.label, obs.mask, now
+        assert self.kalman.x is not None  # update() has run on this observation
         self.box = self.kalman.x[:4].copy()
 
 
@@ -193,6 +196,7 @@ def save_observation(path: Path, obs: Observation) -> None:
     """Written whole or not at all (the launcher polls for it)."""
     tmp = path.with_suffix(".tmp.npz")
     parts = {k: obs.parts[k] for k in PARTS if k in obs.parts}
+    assert obs.frame is not None  # a camera's observation carries its picture (load_observation reads it)
     np.savez(tmp, mask=obs.mask, frame=obs.frame, label=obs.label, kind=obs.kind, **parts)
     os.replace(tmp, path)
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.command import parse_body
+from agent.protocol.command import GestureCommand, parse_body
 from agent.protocol.ctl import Clock, decode_ctl
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
@@ -58,7 +58,7 @@ def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | N
 def commands_along(shown, transform, n_agents: int, controller: str = "fill"):
     """[(index of the first observation it holds for, command)]: a new command whenever the recognised
     gesture changes between consecutive observations `shown`, all in one image -> domain `transform`."""
-    out = []
+    out: list[tuple[int, GestureCommand]] = []
     last = None
     for i, o in enumerate(shown):
         cmd = build_command(o, transform, n_agents, controller, seq=len(out) + 1)

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -211,7 +212,7 @@ def region_controller_timing() -> dict:
 
 def perception_timings() -> dict:
     """Eigen-image training on the shared hand set (features + fit, 'best' method), inference per image."""
-    out = {"eigen_training_seconds": None, "eigen_inference_ms": None}
+    out: dict[str, Any] = {"eigen_training_seconds": None, "eigen_inference_ms": None}
     from threadpoolctl import threadpool_limits
 
     from perception.dataset import SHARED_HANDS, load_folder
@@ -236,10 +237,16 @@ def write_outputs(record: BenchRecord, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(record.to_json(indent=2) + "\n")
     lines = [
-        f"Measured {record.date} on {record.machine.cores} cores, "
-        f"{record.machine.memory_mb // 1024} GiB ({'quick' if record.quick else 'full'} run).",
+        (
+            f"Measured {record.date} on {record.machine.cores} cores, "
+            f"{record.machine.memory_mb // 1024} GiB ({'quick' if record.quick else 'full'} run)."
+        ),
         "",
-        "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step | RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s | decentralised/central time |",
+        (
+            "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step "
+            "| RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s "
+            "| decentralised/central time |"
+        ),
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in record.runs:
@@ -248,7 +255,8 @@ def write_outputs(record: BenchRecord, out: Path) -> None:
             continue
         lines.append(
             f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
-            f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | {r.rss_mb_total} | "
+            f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | "
+            f"{r.rss_mb_total} | "
             f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |"
         )
     lines += [
@@ -264,8 +272,11 @@ def write_outputs(record: BenchRecord, out: Path) -> None:
         "",
         f"Eigen-image training: {record.eigen_training_seconds} s; inference {record.eigen_inference_ms} ms/image.",
         "",
-        f"Region controller: {record.region_controller_ms_per_video_frame} ms per video frame (Weizmann clip, "
-        f"person regions + ellipses + command), {record.region_controller_ms_per_hand_photo} ms per hand photograph.",
+        (
+            f"Region controller: {record.region_controller_ms_per_video_frame} ms per video frame (Weizmann clip, "
+            f"person regions + ellipses + command), {record.region_controller_ms_per_hand_photo} ms per hand "
+            "photograph."
+        ),
     ]
     (out / "results.md").write_text("\n".join(lines) + "\n")
     import matplotlib

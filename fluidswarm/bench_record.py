@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import types
 import typing
+from collections.abc import Set as AbstractSet
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
@@ -301,12 +302,12 @@ def _value(value, hint, key: str):
     return float(value) if hint is float else value
 
 
-def _typed_fields(cls, d: object, where: str, skip: set[str] = frozenset()) -> dict:
+def _typed_fields(cls, d: object, where: str, skip: AbstractSet[str] = frozenset()) -> dict:
     """The fields of dataclass `cls` read from `d`, each checked; a missing optional field is None."""
     if not isinstance(d, dict):
         raise BenchRecordError(f"key '{where.rstrip('.') or '.'}': expected an object, got {d!r}")
     hints = typing.get_type_hints(cls)
-    out = {}
+    out: dict[str, typing.Any] = {}
     for f in fields(cls):
         if f.name in skip:
             continue

@@ -11,6 +11,7 @@ import argparse
 import importlib
 import signal
 import sys
+from typing import NoReturn
 
 from agent.protocol.errors import UserError
 
@@ -29,7 +30,7 @@ COMMAND_MODULES = (
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2
+    def error(self, message: str) -> NoReturn:  # one line, exit 2
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 

@@ -75,9 +75,7 @@ class FailureInjector:
                 victims = self._signal_victims(procs, f.count, signal.SIGSTOP)
                 self.log.frozen.update(victims)
                 self.log.injected.append(f"step {f.at_step}: SIGSTOP agents {victims} for {f.seconds:g} s")
-                threading.Timer(
-                    f.seconds, lambda vs=victims: [_signal(procs[v].pid, signal.SIGCONT) for v in vs]
-                ).start()
+                threading.Timer(f.seconds, _signal_each, (procs, victims, signal.SIGCONT)).start()
                 self._calm_from = max(self._calm_from, time.monotonic() + f.seconds)
             elif f.kind == "kill_coordinator" and self.coordinator is not None:
                 # planned: a survivable fault (agents keep their last command), not a lost helper
@@ -90,6 +88,11 @@ class FailureInjector:
                 self.log.injected.append(f"step {f.at_step}: {len(new)} late joiners {new}")
             self._calm_from = max(self._calm_from, time.monotonic())
             self._pending -= 1
+
+
+def _signal_each(procs, ids: list[int], sig) -> None:
+    for v in ids:
+        _signal(procs[v].pid, sig)
 
 
 def _signal(pid: int, sig) -> None:

@@ -61,7 +61,7 @@ def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
-        preexec_fn=die_with_parent,
+        preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
     )
     run.add_coordinator(proc)
     return proc
@@ -93,6 +93,7 @@ def score_formation(
     t = im.transform
     rows, cols = mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
+    assert run.options.out is not None  # an imitation writes its formation picture (RunOptions.out)
     png = plot_formation(
         Path(run.options.out) / f"{run.options.name}_formation.png",
         pos,
@@ -207,6 +208,7 @@ class FileImitation:
         wps = None if sequence or fill else np.array([[c.route[-1].x, c.route[-1].y] for c in im.command.classes])
         # Scored once, by the recorder, which sees every state: the last recorded step against the target
         # (for a sequence, the last frame's silhouette); nothing recorded, nothing formed.
+        assert run.mcap is not None  # an imitation is always recorded (drive() started the recorder)
         score = recorded_fidelity(run.mcap) or Fidelity(0.0, 0.0, 0.0)
         score_formation(
             run,

@@ -150,6 +150,7 @@ class CameraImitation:
             _wait_first(coord, tmp / "first.npz", self.source, FIRST_SECONDS + self.stall_seconds, self.subject)
         )
         self.im = im = prepare_observation(first, self.agents, controller=self.controller)
+        assert first.frame is not None  # save_observation wrote the picture with the silhouette
         target, image = write_target(tmp, im, first.frame)
         meta = {
             "scenario": o.name,
@@ -192,6 +193,7 @@ class CameraImitation:
     def score(self, run: Run) -> None:
         self.account(run)
         coord = run.coordinator
+        assert coord is not None  # drive() started it
         if self.watch.failed or coord.returncode not in (0, -15, None):
             raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
         # Against the last gesture commanded, which only this process knows (the recorder's target, and its

@@ -120,6 +120,7 @@ def _imitate(args) -> int:
 def print_lines(r: RunRecord) -> None:
     from coordinator.control.fidelity import format_fidelity
 
+    assert r.fidelity is not None  # an imitation's score() always sets it
     print(format_fidelity(r.fidelity))
     print(f"formation_seconds={r.formation_seconds:.2f}")
     print(f"formation_wall_seconds={r.formation_wall_seconds:.2f}")

@@ -27,7 +27,7 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, Self
 
 import numpy as np
 
@@ -40,6 +40,8 @@ from fluidswarm.failures import FailureInjector
 from fluidswarm.recording.progress import Progress
 
 if TYPE_CHECKING:
+    from agent.sph.particle import Control
+    from agent.sph.setups import Setup
     from coordinator.control.fidelity import Fidelity
 
 
@@ -67,12 +69,12 @@ class SwarmPlan:
     start, with `joiner_control` (default the first particle's); ids / swarm_ids: the slice started here
     and the whole swarm (multi-host); startup_timeout / run_timeout [s]: None for run_swarm's defaults."""
 
-    setup: object
+    setup: Setup
     steps: int
     sync: Sync = Sync()
     per_agent: dict = field(default_factory=dict)
     joiners_at: tuple[float, float] | None = None
-    joiner_control: object = None
+    joiner_control: Control | None = None
     ids: list[int] | None = None
     swarm_ids: list[int] | None = None
     startup_timeout: float | None = None
@@ -85,7 +87,9 @@ class RunOptions:
     written, no recorder); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:
     fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; live: HOST:PORT
     of the recorder's Foxglove server; commands: the agents follow signed gesture commands; progress: the
-    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect: the bus (None: a fresh run on an embedded router); auth_file: with connect, the run's users file (else $FLUIDSWARM_AUTH_FILE; docs/security.md)."""
+    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect: the bus
+    (None: a fresh run on an embedded router); auth_file: with connect, the run's users file (else
+    $FLUIDSWARM_AUTH_FILE; docs/security.md)."""
 
     name: str
     out: Path | None = None
@@ -186,19 +190,21 @@ class Run:
 
     def __init__(self, kind: RunKind, options: RunOptions):
         self.kind, self.options = kind, options
-        self.launcher: Launcher | None = None
+        # Set by __enter__, and a Run is used only inside its `with` block (so never None where it is read).
+        self.launcher: Launcher = None  # type: ignore[assignment]  # see above
         self.injector: FailureInjector | None = None
         self.result: SwarmResult | None = None
-        self.record: RunRecord | None = None
+        # Set when the run's `with` block ends without an error (kinds read it in score(), callers after the block).
+        self.record: RunRecord = None  # type: ignore[assignment]  # see above
         self.mcap: Path | None = None
-        self.plan: SwarmPlan | None = None
+        self.plan: SwarmPlan = None  # type: ignore[assignment]  # set by swarm(), before anything reads it
         self.coordinator: subprocess.Popen | None = None
         self._on_start: list[Callable[[], None]] = []
         self._on_stop: list[Callable[[], None]] = []
         self._bar: Progress | None = None
         self._scratch: Path | None = None
 
-    def __enter__(self) -> Run:
+    def __enter__(self) -> Self:
         o = self.options
         try:
             self.launcher = Launcher(
@@ -261,9 +267,12 @@ class Run:
         self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None
     ) -> Path | None:
         """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either)."""
-        if path is None and self.options.out is None:
+        if path:
+            self.mcap = Path(path)
+        elif self.options.out is not None:
+            self.mcap = Path(self.options.out) / f"{self.options.name}.mcap"
+        else:
             return None
-        self.mcap = Path(path) if path else Path(self.options.out) / f"{self.options.name}.mcap"
         self.launcher.start_recorder(str(self.mcap), metadata, dt, target=target, image=image, live=self.options.live)
         return self.mcap
 
@@ -272,7 +281,7 @@ class Run:
         o, la = self.options, self.launcher
         self.plan = plan
         la.track_progress()
-        self.injector = FailureInjector(
+        self.injector = injector = FailureInjector(
             la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
         )
         if o.progress:
@@ -286,7 +295,7 @@ class Run:
             for fn in self._on_start:
                 fn()
 
-        self.result = run_swarm(
+        self.result = result = run_swarm(
             plan.setup,
             plan.steps,
             launcher=la,
@@ -299,7 +308,7 @@ class Run:
             run_timeout=plan.run_timeout,
             **plan.sync.spec(),
         )
-        return self.result
+        return result
 
     def _spawn_late(self, count: int) -> list[int]:
         # Joiners start at the plan's point and adopt the swarm's step (docs/protocol.md).
@@ -319,8 +328,8 @@ class Run:
         extra = [f"realtime_factor {factor:.2f}"] if factor is not None and o.realtime else []
         self._bar.show(max(la.max_step, 0), f"alive {len(la.swarm.alive)}", f"failures {injected}", *extra)
 
-    def _summarise(self) -> RunRecord:
-        res, la, o, plan = self.result, self.launcher, self.options, self.plan
+    def _summarise(self, res: SwarmResult) -> RunRecord:
+        la, o, plan = self.launcher, self.options, self.plan
         log = self.injector.log if self.injector else None
         finals = dict(res.finals)
         return RunRecord(

@@ -10,6 +10,7 @@ import tomllib
 from dataclasses import dataclass, field, fields
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES
@@ -232,7 +233,8 @@ def load_scenario(path: str | Path) -> Scenario:
     allowed_sph = {f.name for f in fields(SPHParams)}
     _check_keys(file, "sph.", sph, allowed_sph)
     try:
-        SPHParams(**{k: (tuple(v) if k == "domain" else v) for k, v in sph.items()})
+        sph_kw: dict[str, Any] = {k: (tuple(v) if k == "domain" else v) for k, v in sph.items()}
+        SPHParams(**sph_kw)
     except (ValueError, TypeError) as exc:
         raise UserError(f"{file}: key 'sph': {exc}") from None
     for key in ("beta", "mu"):  # an accepted key must act: in an imitation the gesture command sets them

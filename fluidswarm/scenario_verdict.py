@@ -18,7 +18,8 @@ def judge(sc: Scenario, record: RunRecord, out: Path, baseline: RunRecord | None
 
     f = record.figures
     spared = record.agents + record.failures_joined - record.failures_killed - record.failures_frozen
-    f["finished_share"] = min(1.0, record.finished / max(spared, 1))
+    f["finished_share"] = finished_share = min(1.0, record.finished / max(spared, 1))
+    assert record.mcap is not None  # a scenario's run is always recorded (its verdict reads the MCAP)
     complete, _steps, missing = check(record.mcap)
     f["mcap_complete"] = complete
     f["mcap_missing_states"] = missing
@@ -45,21 +46,19 @@ def judge(sc: Scenario, record: RunRecord, out: Path, baseline: RunRecord | None
         got = fid.inside if fid else 0.0
         need(got >= crit.min_fidelity_inside, f"fidelity_inside {got:.3f} < {crit.min_fidelity_inside}")
     if crit.min_branch_gap:
-        got = f.get("branch_gap", 0.0)
+        got = float(f.get("branch_gap", 0.0))
         need(got >= crit.min_branch_gap, f"branch_gap {got:.2f} < {crit.min_branch_gap}")
     if crit.min_fidelity_ratio:
         ratio = f.get("fidelity_ratio")
         need(
-            ratio is not None and ratio >= crit.min_fidelity_ratio,
+            isinstance(ratio, (int, float)) and ratio >= crit.min_fidelity_ratio,
             f"fidelity_ratio {ratio} < {crit.min_fidelity_ratio}",
         )
     if crit.max_stall_seconds:
         got = record.longest_stall_seconds
         need(got <= crit.max_stall_seconds, f"longest_stall_seconds {got:.2f} > {crit.max_stall_seconds}")
     if crit.min_finished:
-        need(
-            f["finished_share"] >= crit.min_finished, f"finished_share {f['finished_share']:.2f} < {crit.min_finished}"
-        )
+        need(finished_share >= crit.min_finished, f"finished_share {finished_share:.2f} < {crit.min_finished}")
     if crit.complete_mcap:
         need(complete, f"MCAP incomplete ({missing} missing states)")
     return record

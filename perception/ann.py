@@ -98,6 +98,7 @@ class GestureANN:
             res = minimize(loss, start, jac=True, method="L-BFGS-B", options={"maxiter": 3000})
             if best is None or res.fun < best.fun:
                 best = res
+        assert best is not None  # restarts >= 1
         self._unpack(best.x)
         return float(((self(x) - y) ** 2).mean())
 

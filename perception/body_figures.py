@@ -21,7 +21,7 @@ TORSO_MIN_MAJOR = 18.0  # pixels
 
 def head_error(silhouette: np.ndarray, head_x: int, head_top: int) -> float:
     """See the module docstring; inf when the silhouette misses the head's column near the label."""
-    cols = silhouette[:, max(0, head_x - 1) : head_x + 2].any(axis=1)
+    cols = np.asarray(silhouette[:, max(0, head_x - 1) : head_x + 2].any(axis=1))
     near = [
         r
         for r in range(head_top - HEAD_FEET_TOLERANCE, head_top + HEAD_FEET_TOLERANCE + 1)

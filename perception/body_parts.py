@@ -76,7 +76,7 @@ def body_axis(silhouette: np.ndarray) -> int:
 def head_top(silhouette: np.ndarray, axis: int, gap_share: float = 0.08) -> int:
     """Where the silhouette ends, followed upwards along the axis (3 columns) from its centroid row; gaps of
     up to gap_share of the silhouette's height are crossed (a wall-coloured belt or midriff)."""
-    cols = silhouette[:, max(0, axis - 1) : axis + 2].any(axis=1)
+    cols = np.asarray(silhouette[:, max(0, axis - 1) : axis + 2].any(axis=1))
     ys = np.nonzero(silhouette)[0]
     gap = max(2, int(round(gap_share * (ys.max() - ys.min() + 1))))
     r = int(round(ys.mean()))

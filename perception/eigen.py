@@ -156,7 +156,7 @@ class EigenClassifier:
         classes = np.unique(self.train_labels)
         labels, conf = [], []
         for row, idx in zip(d2, nearest):
-            votes = np.array([np.sum(self.train_labels[idx] == c) for c in classes], float)
+            votes = np.array([np.sum(self.train_labels[idx] == c) for c in classes], np.float64)
             # ties: the class with the smaller summed distance among its voters wins
             dist = np.array(
                 [row[idx][self.train_labels[idx] == c].sum() if votes[i] else np.inf for i, c in enumerate(classes)]

@@ -62,7 +62,7 @@ def fit_ellipse(region: np.ndarray) -> Ellipse | None:
 def _wrist_side(mask: np.ndarray) -> str | None:
     """The picture border the hand touches most (the arm leaves the picture there), or None."""
     contact = {"bottom": mask[-1].sum(), "top": mask[0].sum(), "left": mask[:, 0].sum(), "right": mask[:, -1].sum()}
-    side = max(contact, key=contact.get)
+    side = max(contact, key=lambda k: contact[k])
     return side if contact[side] > 0 else None
 
 
@@ -106,7 +106,7 @@ def hand_regions(mask: np.ndarray) -> dict:
         fingers.append(e)
         joints.append((float(xs[np.argmin(d)]), float(ys[np.argmin(d)])))
         tips.append((float(xs[np.argmax(d)]), float(ys[np.argmax(d)])))
-    order = np.argsort([t[0] for t in tips]) if tips else []
+    order: np.ndarray | list[int] = np.argsort([t[0] for t in tips]) if tips else []
     ys, xs = np.nonzero(mask)
     return {
         "palm": fit_ellipse(palm),

@@ -57,7 +57,7 @@ def crop_square(image: np.ndarray, mask: np.ndarray, size: int = CROP_SIZE, marg
     side = max(y1 - y0, x1 - x0) * (1 + 2 * margin)
     cy, cx = (y0 + y1) / 2.0, (x0 + x1) / 2.0
     s = size / side
-    m = np.float32([[s, 0, size / 2 - cx * s], [0, s, size / 2 - cy * s]])
+    m = np.array([[s, 0, size / 2 - cx * s], [0, s, size / 2 - cy * s]], dtype=np.float32)
     return cv2.warpAffine(image, m, (size, size), flags=cv2.INTER_AREA, borderMode=cv2.BORDER_REPLICATE)
 
 

@@ -101,7 +101,7 @@ def load_video(path: Path) -> list[np.ndarray]:
     if w * h > MAX_PIXELS:
         cap.release()
         raise InputError(f"{path}: video frames too large ({int(w)} x {int(h)})")
-    frames = []
+    frames: list[np.ndarray] = []
     try:
         while len(frames) < MAX_FRAMES:
             ok, frame = cap.read()

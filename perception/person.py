@@ -13,8 +13,9 @@ seeded from what the clip says about the person, with no per-clip constant:
 - surely wall: everything farther away (the wall beside the person and above the arms' reach).
 
 The person is what GrabCut keeps, in parts that touch the band or the moving pixels and are at least
-MIN_PART_SHARE of the largest part (a belt or a bare midriff, wall-coloured, can cut a person in two). All lengths scale with the person's
-height in the picture (the still body's top to the picture's bottom), not with the picture.
+MIN_PART_SHARE of the largest part (a belt or a bare midriff, wall-coloured, can cut a person in two). All
+lengths scale with the person's height in the picture (the still body's top to the picture's bottom), not with
+the picture.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ def seed_mask(
     shape: tuple[int, int], centre_col: int, top_row: int, moving: np.ndarray, seed: PersonSeed = PersonSeed()
 ) -> np.ndarray:
     """GrabCut's initial labels (cv2.GC_*) for one frame: see the module docstring."""
-    rows, cols = shape
+    rows, _cols = shape
     height = max(rows - top_row, 1)
     half = max(2, int(round(seed.band_share * height)))
     margin = max(2, int(round(seed.margin_share * height)))
@@ -68,7 +69,8 @@ def grabcut_person(frame_bgr: np.ndarray, init: np.ndarray, iterations: int = Pe
     mask = init.copy()
     bgd, fgd = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
     cv2.setRNGSeed(0)  # GrabCut's k-means start: the same frame gives the same silhouette
-    cv2.grabCut(frame_bgr, mask, None, bgd, fgd, iterations, cv2.GC_INIT_WITH_MASK)
+    # cv2's stubs require rect; the binding takes None (unused with GC_INIT_WITH_MASK)
+    cv2.grabCut(frame_bgr, mask, None, bgd, fgd, iterations, cv2.GC_INIT_WITH_MASK)  # type: ignore[call-overload]
     person = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(person, connectivity=8)
     if n <= 1:

@@ -38,7 +38,8 @@ def hand_mask(image_bgr: np.ndarray) -> np.ndarray:
     score = cv2.GaussianBlur(0.75 * sat + 0.25 * dark, (3, 3), 0)
     if float(score.max() - score.min()) < 12.0:
         raise SegmentationError("no foreground: the image is blank (uniform)")
-    score8 = cv2.normalize(score, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    # cv2's stubs require dst; the binding takes None (a new array)
+    score8 = cv2.normalize(score, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload]
     _t, fg = cv2.threshold(score8, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     k = max(3, (min(img.shape[:2]) // 50) | 1)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
@@ -167,7 +168,7 @@ def _fill(mask: np.ndarray) -> np.ndarray:
 
 def _components(mask: np.ndarray, min_area: int) -> list[np.ndarray]:
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
-    order = (np.argsort(-stats[1:, cv2.CC_STAT_AREA]) + 1) if n > 1 else []
+    order: np.ndarray | list[int] = (np.argsort(-stats[1:, cv2.CC_STAT_AREA]) + 1) if n > 1 else []
     return [labels == i for i in order if stats[i, cv2.CC_STAT_AREA] >= min_area]
 
 

@@ -61,7 +61,7 @@ def _removal_tables() -> tuple[np.ndarray, np.ndarray]:
     first = np.zeros(256, dtype=bool)
     second = np.zeros(256, dtype=bool)
     for code in range(256):
-        p2, p3, p4, p5, p6, p7, p8, p9 = p = [(code >> k) & 1 for k in range(8)]
+        p2, _p3, p4, _p5, p6, _p7, p8, _p9 = p = [(code >> k) & 1 for k in range(8)]
         b = sum(p)
         a = sum(1 for k in range(8) if p[k] == 0 and p[(k + 1) % 8] == 1)
         if 2 <= b <= 6 and a == 1:
@@ -147,9 +147,9 @@ def main_path(skel: np.ndarray) -> np.ndarray:
         return np.zeros((0, 2))
     start = next(iter(g))
     dist, _ = _bfs(g, start)
-    a = max(dist, key=dist.get)
+    a = max(dist, key=lambda k: dist[k])
     dist, prev = _bfs(g, a)
-    b = max(dist, key=dist.get)
+    b = max(dist, key=lambda k: dist[k])
     return np.array([(x, y) for y, x in _path(prev, b)], float)
 
 

@@ -14,6 +14,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Self
 
 import cv2
 import numpy as np
@@ -157,6 +158,7 @@ class FrameStream:
                 self._lock.wait(min(0.1, self.params.stall_seconds - silent))
             self._taken = self._count
             frame = self._frame
+            assert frame is not None  # a frame arrived (_count moved past _taken)
         self._next_due = max(now, self._next_due) + 1.0 / self.params.fps
         return frame
 
@@ -168,7 +170,7 @@ class FrameStream:
         if not self._thread.is_alive():
             self._cap.release()
 
-    def __enter__(self) -> FrameStream:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:

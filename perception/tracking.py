@@ -63,7 +63,7 @@ def centre_to_box(c) -> tuple[float, float, float, float]:
 def track_boxes(detections: list, q: float = 0.5, r: float = 4.0) -> list[tuple[float, float, float, float] | None]:
     """Filtered (x, y, w, h) per frame from per-frame detections (x, y, w, h) or None (missed)."""
     kf = BoxKalman(q=q, r=r)
-    out = []
+    out: list[tuple[float, float, float, float] | None] = []
     for det in detections:
         pred = kf.predict()
         if det is not None:

@@ -2,7 +2,8 @@
 with `--live` and a viewer that subscribes to the particles and never reads (a stuck viewer), and with a
 viewer that reads everything. Runs alternate (A, B, C, A, B, C, ...) so a drift of the machine hits all three.
 
-    flock /tmp/fluidswarm-cpu.lock .venv/bin/python scripts/live_bench.py [N] [STEPS] [REPEATS] > docs/benchmarks/live.md
+    flock /tmp/fluidswarm-cpu.lock .venv/bin/python scripts/live_bench.py [N] [STEPS] [REPEATS] \\
+        > docs/benchmarks/live.md
 
 Needs the `websockets` package (the test extra) for the viewers.
 """

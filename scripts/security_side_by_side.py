@@ -44,7 +44,7 @@ def one(n: int, steps: int) -> dict:
     with Launcher() as la:
         res = run_swarm(spread_block(n), steps, launcher=la)
     f = list(res.finals.values())
-    field = lambda r, k: getattr(r, k) if hasattr(r, k) else r[k]
+    field = lambda r, k: getattr(r, k) if hasattr(r, k) else r[k]  # a FinalReport or a dict
     cpu = np.mean([(field(r, "cpu_seconds") - field(r, "cpu_seconds_at_start")) / max(field(r, "steps"), 1) for r in f])
     rejected: dict[str, int] = {}
     for r in f:

@@ -48,7 +48,7 @@ def shared_hands() -> Path:
 @pytest.fixture(scope="session")
 def shared_image(shared_hands: Path) -> Callable[[int], Path]:
     """The last image of a class of the shared hand set (a fixed, documented pick)."""
-    return lambda cls: sorted((shared_hands / str(cls)).iterdir())[-1]
+    return lambda cls: max((shared_hands / str(cls)).iterdir())
 
 
 @pytest.fixture(autouse=True)

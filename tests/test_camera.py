@@ -4,6 +4,7 @@ sequence as the arms move; the formation follows; bad cameras are one-line error
 from __future__ import annotations
 
 import http.server
+import itertools
 import subprocess
 import sys
 import threading
@@ -83,7 +84,7 @@ def test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follow
     print("commands:", [(round(t, 2), g) for t, g in phases])
     assert [s for s in sorted(switches)] == list(range(min(switches), max(switches) + 1))
     assert "left_side-right_side" in gestures and "left_up-right_up" in gestures
-    assert sum(a != b for a, b in zip(gestures, gestures[1:])) >= 2  # up -> side -> up at least
+    assert sum(a != b for a, b in itertools.pairwise(gestures)) >= 2  # up -> side -> up at least
     # The formation follows: after a switch to another gesture, the swarm's width / height moves towards that
     # of the commanded silhouette (the fill shape's outline in the command): the gap shrinks in every phase but
     # possibly the last (cut short by the end of the stream), and at least halves in one. (Halving in two failed

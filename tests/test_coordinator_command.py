@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import hmac
+import itertools
 import json
 import os
 from pathlib import Path
@@ -117,7 +118,7 @@ def test_gesture_sequence_gets_a_new_command_per_change():
     cmds = commands_for_frames(WAVE2, 24, "region")
     assert len(cmds) >= 3
     assert [c.seq for c in cmds] == list(range(1, len(cmds) + 1))
-    assert all(a.gesture != b.gesture for a, b in zip(cmds, cmds[1:]))
+    assert all(a.gesture != b.gesture for a, b in itertools.pairwise(cmds))
     assert {"left_up-right_up", "left_side-right_side"} <= {c.gesture for c in cmds}
 
 

@@ -133,7 +133,8 @@ def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(imitations)
     t_lo, t_hi = np.percentile(torso[:, 0], [10, 90])
     ty = np.median(torso[:, 1])
     print(
-        f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; right arm x {np.round(right[:, 0], 1)}; "
+        f"torso x [{t_lo:.1f}, {t_hi:.1f}] m; left arm x {np.round(left[:, 0], 1)}; "
+        f"right arm x {np.round(right[:, 0], 1)}; "
         f"arm heights {np.median(left[:, 1]):.1f}/{np.median(right[:, 1]):.1f} m vs torso {ty:.1f} m; iou {fig['iou']}"
     )
     assert np.all(left[:, 0] < t_lo) and np.all(right[:, 0] > t_hi)

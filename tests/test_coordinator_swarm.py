@@ -4,6 +4,7 @@ sequences."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import subprocess
@@ -263,4 +264,4 @@ def test_coordinator_publishes_a_new_command_when_the_gesture_changes():
     assert seqs == sorted(seqs) and len(set(seqs)) >= 3
     by_seq = {c.seq: c.gesture for c in cmds}
     gestures = [by_seq[k] for k in sorted(by_seq)]
-    assert all(a != b for a, b in zip(gestures, gestures[1:])), gestures
+    assert all(a != b for a, b in itertools.pairwise(gestures)), gestures

@@ -25,7 +25,7 @@ def test_eval_classifier_best_pipeline_beats_the_thesis_baseline(shared_hands):
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     acc = float(lines[-1].split("=")[1])
-    base = [float(l.split("rate=")[1].split()[0]) for l in lines if "components=  50" in l][0]
+    base = next(float(l.split("rate=")[1].split()[0]) for l in lines if "components=  50" in l)
     print(f"best={acc:.3f} baseline(50)={base:.3f}")
     assert acc >= 0.95 and acc > base
 
@@ -35,7 +35,7 @@ def test_bad_inputs_give_one_line_errors(tmp_path):
     with pytest.raises(InputError, match="no such file"):
         load_image(tmp_path / "missing.jpg")
     trunc = tmp_path / "trunc.jpg"
-    ok, buf = cv2.imencode(".jpg", np.random.default_rng(0).integers(0, 255, (100, 100, 3), dtype=np.uint8))
+    _ok, buf = cv2.imencode(".jpg", np.random.default_rng(0).integers(0, 255, (100, 100, 3), dtype=np.uint8))
     trunc.write_bytes(buf.tobytes()[:200])
     with pytest.raises(InputError):
         load_image(trunc)

@@ -42,7 +42,7 @@ def test_unreadable_file(tmp_path, capsys):
 
 
 def test_truncated_jpeg(tmp_path, capsys):
-    ok, buf = cv2.imencode(".jpg", noise())
+    _ok, buf = cv2.imencode(".jpg", noise())
     p = tmp_path / "cut.jpg"
     p.write_bytes(buf.tobytes()[: len(buf) // 2])  # half a JPEG: OpenCV would decode a grey bottom half
     with pytest.raises(InputError, match="truncated"):
@@ -51,7 +51,7 @@ def test_truncated_jpeg(tmp_path, capsys):
 
 
 def test_truncated_png(tmp_path):
-    ok, buf = cv2.imencode(".png", noise())
+    _ok, buf = cv2.imencode(".png", noise())
     p = tmp_path / "cut.png"
     p.write_bytes(buf.tobytes()[:300])
     with pytest.raises(InputError, match="unreadable or truncated"):
@@ -79,7 +79,7 @@ def test_20000_by_20000_png_is_refused_from_its_header(tmp_path, capsys):
 
 
 def test_20000_by_20000_jpeg_is_refused_from_its_header(tmp_path):
-    ok, buf = cv2.imencode(".jpg", noise(16, 16))
+    _ok, buf = cv2.imencode(".jpg", noise(16, 16))
     data = bytearray(buf.tobytes())
     i = data.find(b"\xff\xc0")
     data[i + 5 : i + 9] = (20000).to_bytes(2, "big") * 2  # height, width in the start-of-frame header

@@ -73,7 +73,7 @@ def test_an_agent_far_ahead_does_not_drop_the_others_states(recorder):
 
 
 def test_a_silent_agent_is_written_off_after_release_seconds(recorder):
-    rec, clock, path = recorder
+    rec, clock, _path = recorder
     for k in range(40):
         clock.t += 0.5
         for j in (0, 1) if k > 5 else (0, 1, 2):  # agent 2 freezes after step 5
@@ -85,7 +85,7 @@ def test_a_silent_agent_is_written_off_after_release_seconds(recorder):
 
 
 def test_the_last_states_still_in_flight_when_told_to_stop_are_written_and_scored(recorder):
-    rec, clock, path = recorder
+    rec, _clock, path = recorder
     for k in range(10):
         for j in range(3):
             post(rec, j, k)
@@ -105,7 +105,7 @@ def test_the_last_states_still_in_flight_when_told_to_stop_are_written_and_score
 
 
 def test_a_last_step_missing_agents_is_not_the_scored_formation(recorder):
-    rec, clock, path = recorder
+    rec, _clock, _path = recorder
     for k in range(10):
         for j in range(3) if k < 9 else (0,):  # step 9: only agent 0's state came before the end
             post(rec, j, k)
@@ -116,7 +116,7 @@ def test_a_last_step_missing_agents_is_not_the_scored_formation(recorder):
 
 
 def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
-    rec, clock, path = recorder
+    rec, clock, _path = recorder
     for k in range(30):
         clock.t += 0.5
         for j in (0, 1, 2) if k < 10 else (0, 1):  # agent 2 freezes for good at step 10
@@ -130,7 +130,7 @@ def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
 def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
     """The recorder process's SIGTERM (the launcher stops it at the run's end) arrives wherever its main thread
     is; here, inside the write of step 5. The step being written and the ones after it must all be in the file."""
-    rec, clock, path = recorder
+    rec, _clock, path = recorder
     saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     write_states = rec.writer.write_states
 

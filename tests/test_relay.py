@@ -87,9 +87,8 @@ def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest
 @pytest.mark.swarm
 def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_configuration():
     port = free_port()
-    with compiled_relay(f"tcp/127.0.0.1:{port}"):
-        with pytest.raises(RouterFailed) as failed:  # the port is taken by the first one
-            RouterProcess(RUN, router_config_dict([f"tcp/127.0.0.1:{port}"]))
+    with compiled_relay(f"tcp/127.0.0.1:{port}"), pytest.raises(RouterFailed) as failed:  # the port is taken
+        RouterProcess(RUN, router_config_dict([f"tcp/127.0.0.1:{port}"]))
     message = str(failed.value)
     assert "fluidswarm router: error: cannot open the router" in message and "\n" not in message
     with pytest.raises(RouterFailed, match="router.json: JSON error.*AclConfig"):

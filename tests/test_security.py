@@ -266,7 +266,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
             seen_during_run = dict(seen)
             relay_rejected = dict(la.relay.rejected)
         finally:
-            r_out, r_err = _stop(rogue)
+            r_out, _r_err = _stop(rogue)
     sent = json.loads(r_out.strip().splitlines()[-1])
     rejected: dict[str, int] = {}
     for r in res.finals.values():

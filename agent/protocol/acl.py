@@ -97,13 +97,13 @@ def acl_config(users: list[str]) -> dict:
         "recorder": ["never", "no-admin", "recorder-never", "recorder-token"],
     }
     subjects, policies = [], []
-    for role in role_rules:
+    for role, denied in role_rules.items():
         # `router` (another host's router) gets no rule: it may do everything (it checks its own clients
         # itself), and so may the other end of a router-to-router link, where no user name is seen (only the
         # accepting side authenticates): that link is mutual TLS with a certificate of the swarm's CA.
         if role in users:
             subjects.append({"id": role, "usernames": [role]})
-            policies.append({"id": role, "rules": role_rules[role], "subjects": [role]})
+            policies.append({"id": role, "rules": denied, "subjects": [role]})
     for i in _agent_ids(users):
         if i >= keys.MAX_AGENTS:
             raise ValueError(f"agent-{i}: ids 0..{keys.MAX_AGENTS - 1} only (keys.ID_BITS)")

@@ -156,7 +156,7 @@ def _only(d, allowed: set, where: str) -> None:
         raise CommandRejected("malformed", f"{where} is not an object")
     extra = set(d) - allowed
     if extra:
-        raise CommandRejected("malformed", f"{where}: unknown field {sorted(extra)[0]!r}")
+        raise CommandRejected("malformed", f"{where}: unknown field {min(extra)!r}")
 
 
 def _no_constant(name: str):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
 
 from agent.protocol.json_fields import integer, number
 from agent.sph.particle import NFIELDS
@@ -95,7 +96,7 @@ def decode_report(data: bytes) -> FinalReport | None:
         rejected = msg.get("rejected", {})
         if not isinstance(rejected, dict) or len(rejected) > 64:
             return None
-        kw = {
+        kw: dict[str, Any] = {
             "id": integer(msg["id"], 0, 2**31 - 1),
             "status": Status(msg["status"]),
             "steps": integer(msg["steps"], 0, MAX_COUNT),

@@ -102,11 +102,11 @@ class AgentSpec:
         except RecursionError:  # found by fuzzing (tests/vectors/fuzz.json): deeper than json's stack
             raise ValueError("agent spec: not JSON (nested too deep)") from None
         if not isinstance(raw, dict):
-            raise ValueError("agent spec: must be a JSON object")
+            raise ValueError("agent spec: must be a JSON object")  # noqa: TRY004  # callers catch ValueError: bad input
         known = set(cls.__dataclass_fields__)
         unknown = set(raw) - known
         if unknown:
-            raise ValueError(f"agent spec: unknown field {sorted(unknown)[0]!r}")
+            raise ValueError(f"agent spec: unknown field {min(unknown)!r}")
         try:
             spec = cls(**raw)
         except TypeError as exc:

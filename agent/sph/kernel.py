@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 
-def gaussian_kernel(r: np.ndarray, h: float, kappa: float = 2.0) -> np.ndarray:
+def gaussian_kernel(r: np.ndarray | float, h: float, kappa: float = 2.0) -> np.ndarray:
     """W(R) = alpha_d exp(-R^2) for R = r/h <= kappa, else 0; alpha_d = 1/(pi h^2) in 2-D (eq. 3.3).
 
     Truncating at kappa = 2 leaves a zeroth moment of 1 - e^-4 (not exactly 1): we keep the thesis'

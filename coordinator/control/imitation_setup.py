@@ -60,7 +60,7 @@ class Imitation:
     transform: ImageToDomain
     command: GestureCommand
     setup: Setup
-    observation: object = None
+    observation: Observation | None = None
 
 
 class Controller(StrEnum):

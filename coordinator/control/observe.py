@@ -62,7 +62,7 @@ def body_label(parts: dict, head_row: float | None = None) -> str:
 def hand_label(mask: np.ndarray) -> str:
     try:
         fv = feature_vector(mask)
-    except Exception:  # a silhouette the skeleton cannot read is still a gesture
+    except Exception:  # noqa: BLE001  # a silhouette the skeleton cannot read is still a gesture
         return "hand"
     on = [n for n, v in zip(NAMES[:5], fv[:5]) if v]
     return "+".join(on) or "blob"

@@ -100,7 +100,8 @@ def _region_labels(mask: np.ndarray, k: int):
     k = max(1, min(k, len(pts)))
     cv2.setRNGSeed(12345)
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 0.05)
-    _c, labels, centres = cv2.kmeans(pts, k, None, criteria, 4, cv2.KMEANS_PP_CENTERS)
+    # cv2's stubs require bestLabels; the binding takes None (no initial labels)
+    _c, labels, centres = cv2.kmeans(pts, k, None, criteria, 4, cv2.KMEANS_PP_CENTERS)  # type: ignore[call-overload]
     labels = labels.ravel()
     return centres.astype(float), np.bincount(labels, minlength=k), us, vs, labels
 

@@ -120,7 +120,8 @@ class LiveServer:
             port=address.port,
             context=self._context,
             message_backlog_size=BACKLOG,
-            server_listener=_Listener(self._subscribed),
+            # the two callbacks it needs; the Protocol's others have no-op defaults that the SDK does without
+            server_listener=_Listener(self._subscribed),  # type: ignore[arg-type]
         )
         self._channels = {}
         for leaf, name in sc.TOPIC_SCHEMAS.items():
@@ -142,7 +143,7 @@ class LiveServer:
             self._latched[latch] = (leaf, data, log_time_ns)
         try:
             self._channels[leaf].log(data, log_time=log_time_ns)
-        except Exception:  # a live view must never stop the recording
+        except Exception:  # noqa: BLE001  # a live view must never stop the recording
             self.dropped += 1
 
     def _resend(self) -> None:
@@ -164,7 +165,7 @@ class LiveServer:
         def stop() -> None:
             try:
                 self.server.stop()
-            except Exception:
+            except Exception:  # noqa: BLE001, S110  # a live view must never stop the recording, nor its end
                 pass
 
         t = threading.Thread(target=stop, name="live-stop", daemon=True)

@@ -109,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)
     session = zenoh.open(client_config([args.connect]))
     try:
-        subs = [
+        _subs = [  # held (declared) until the recording ends
             # On zenoh's receiving thread (indirect=False): the callback only enqueues, and a Python thread
             # hand-over per state (N per step) was most of this process's CPU at N = 300.
             session.declare_subscriber(
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
                 keys.alive_expr(args.run), zenoh.handlers.Callback(recorder.on_alive, indirect=False), history=True
             ),
         ]
-        token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
+        _token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
         record(recorder, stop)
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
@@ -140,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
         writer.close()
         try:
             session.close()
-        except Exception:
+        except Exception:  # noqa: BLE001, S110  # the recording is written; a failing close loses nothing
             pass
         if live is not None and not live.close():
             # A stuck viewer holds the server's stop (and the SDK's exit hook) forever; the MCAP is finished

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.image import AxesImage
 from matplotlib.patches import Circle, Ellipse
 from PIL import Image
 
@@ -29,7 +30,8 @@ def domain_extent(run: Run, margin: float = 0.05) -> tuple[float, float, float, 
     """(xmin, xmax, ymin, ymax): metadata `domain` if recorded, else what the particles and target span."""
     dom = run.metadata.get("domain")
     if isinstance(dom, (list, tuple)) and len(dom) == 4:
-        return tuple(float(v) for v in dom)
+        xmin, xmax, ymin, ymax = (float(v) for v in dom)
+        return xmin, xmax, ymin, ymax
     pts = [f.positions for f in run.frames if len(f.positions)]
     for tg in run.targets:
         rows, cols = tg.mask.shape
@@ -110,7 +112,7 @@ class FormationRenderer:
         self.ax.set_xlim(xmin, xmax)
         self.ax.set_ylim(ymin, ymax)
         _domain_axes(self.ax)
-        self._target_img = None
+        self._target_img: AxesImage | None = None
         self._target: Target | None = None
         self._run = run
         self._scatter = self.ax.scatter([], [], s=12, zorder=3, animated=True)
@@ -182,8 +184,9 @@ class FormationRenderer:
             self.canvas.restore_region(self._background)
         self._set_scene(self._run.scene_at(frame.t))
         self._scatter.set_offsets(frame.positions if len(frame.positions) else np.empty((0, 2)))
-        self._scatter.set_facecolors(class_colours(frame.class_ids) if len(frame.class_ids) else [])
-        self._scatter.set_edgecolors("none")
+        # matplotlib's stubs take a sequence of colours, not the (N, 4) array the method takes too
+        self._scatter.set_facecolor(class_colours(frame.class_ids) if len(frame.class_ids) else [])  # type: ignore[arg-type]
+        self._scatter.set_edgecolor("none")
         self._title.set_text(f"{self._run.name}  step {frame.step}  t = {frame.t:.2f} s  N = {len(frame.ids)}")
         for artist in (*self._patches, self._scatter, self._title):  # in zorder, as a full draw would
             self.ax.draw_artist(artist)

@@ -42,6 +42,7 @@ NUMERIC_DTYPE = {1: "u1", 2: "i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<
 def packed_fields(dtype: np.dtype) -> list[dict]:
     """`foxglove.PackedElementField` list describing a structured dtype."""
     out = []
+    assert dtype.names is not None and dtype.fields is not None  # a structured dtype
     for name in dtype.names:
         sub, offset = dtype.fields[name][:2]
         out.append({"name": name, "offset": int(offset), "type": NUMERIC_TYPE[sub.str.replace("|", "")]})

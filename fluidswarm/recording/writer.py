@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 from mcap.writer import CompressionType, IndexType, Writer
@@ -107,7 +108,7 @@ class RunWriter:
         self._queue: queue.SimpleQueue = queue.SimpleQueue()  # put() is reentrant: safe in signal handlers
         self._closing = False
         self._error: BaseException | None = None
-        self._stream = open(self.path, "wb")
+        self._stream = open(self.path, "wb")  # noqa: SIM115  # closed by the writer thread when it ends
         self._mcap = Writer(
             self._stream,
             chunk_size=chunk_size,
@@ -131,7 +132,7 @@ class RunWriter:
 
     # --- life cycle ---------------------------------------------------------------------------------
 
-    def __enter__(self) -> RunWriter:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -188,7 +189,7 @@ class RunWriter:
                 self._mcap.finish()
                 self._stream.flush()
                 os.fsync(self._stream.fileno())
-            except BaseException as exc:
+            except BaseException as exc:  # noqa: BLE001  # reported by close(), as the first error is
                 self._error = self._error or exc
             finally:
                 self._stream.close()
@@ -299,7 +300,7 @@ class RunWriter:
         except (TypeError, ValueError) as exc:
             raise ValueError(f"command is not JSON: {exc}") from None
         if not isinstance(command, dict):
-            raise ValueError("command must be a JSON object")
+            raise ValueError("command must be a JSON object")  # noqa: TRY004  # one error type for bad commands
         return self._write(sc.COMMAND, t, command)
 
     def write_image(self, t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> bool:

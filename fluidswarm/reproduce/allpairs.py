@@ -72,7 +72,7 @@ def pair_geometry(x, y, params: SPHParams):
 
 def fluid_quantities(x, y, vx, vy, rho_nb, active, beta, mu, params: SPHParams):
     """ρ (eq. 3.5, self included), p (eq. 3.13) and the stress μ ε (eq. 3.11, neighbours' density rho_nb)."""
-    dx, dy, w, wx, wy = pair_geometry(x, y, params)
+    _dx, _dy, w, wx, wy = pair_geometry(x, y, params)
     pair = active[:, None] & active[None, :]
     w, wx, wy = w * pair, wx * pair, wy * pair
     rho = params.mass * w.sum(axis=1)  # the diagonal is the self term W(0)

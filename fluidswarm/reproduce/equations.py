@@ -98,7 +98,8 @@ def measure(ctx: Context) -> list[Group]:
             "a lag of one step of 0.01 s is short against the flow's time scale (h / 1 m/s = 1 s), so the measured "
             "relations do not depend on it"
             if diff < 0.03
-            else f"the lags change this ratio by {diff:.3f}: pressure and stress act one step late in a flow without drag, "
+            else f"the lags change this ratio by {diff:.3f}: pressure and stress act one step late in a flow "
+            "without drag, "
             "and the first step's forces use the initial ρ = ρ0 (zero pressure); the relation (middle slower) holds "
             "with both",
             "both flows on the branching set-up",

@@ -110,7 +110,8 @@ def pressure_switch(ctx: Context, g: Group) -> None:
                 "§6.3, Fig. 6.15a",
                 "raising β raises the mean pressure and it stays high while β is high",
                 "rises and stays almost at that level",
-                f"β 2 → 20 at step {at}: mean p {b:.2f} → peak {pk:.2f} → {s:.2f} N/m (mean of steps {at + after // 2}-{at + after})",
+                f"β 2 → 20 at step {at}: mean p {b:.2f} → peak {pk:.2f} → {s:.2f} N/m "
+                f"(mean of steps {at + after // 2}-{at + after})",
                 Verdict.AGREE if stays else Verdict.DISAGREE,
                 why,
                 f"{'thesis-faithful' if name == 'body force' else 'measurable'}; {reading}",
@@ -135,6 +136,7 @@ def imitation(path: Path, n: int, controller: str, frame: int | None = None, bet
     command = im.command
     if beta_arm is not None:
         obs = im.observation
+        assert obs is not None  # prepare_input keeps the observation it built
         command = body_region_command(obs.mask, obs.parts, im.transform, n, gesture=obs.label, beta_arm=beta_arm)
     return im.setup, followers_for(command, im.setup.ids), command
 
@@ -162,7 +164,8 @@ def body_speeds(ctx: Context, g: Group) -> None:
             "§6.3, Fig. 6.15b-c",
             "the arms (β = 20) move slower on average than torso and head (β = 2)",
             "arm velocity < torso/head velocity",
-            f"region controller, {n} particles ({n_arm} arm), {steps} steps: arms {a20:.3f} vs torso/head {t20:.3f} m/s "
+            f"region controller, {n} particles ({n_arm} arm), {steps} steps: arms {a20:.3f} "
+            f"vs torso/head {t20:.3f} m/s "
             f"(ratio {a20 / t20:.2f}); with the arms kept at β = 2: {a2:.3f} vs {t2:.3f} (ratio {a2 / t2:.2f})",
             Verdict.AGREE if a20 < t20 else Verdict.DISAGREE,
             (
@@ -278,7 +281,8 @@ def measure(ctx: Context) -> list[Group]:
     g.notes.append(
         "Pressure after raising β: a 10 × 10 block (spacing 1, drag 0.5 1/s) held by a waypoint pull "
         "(eq. 6.2, r = 1, s = 3, α = 0.5, the thesis' imitations), held by nothing, or (spacing 0.9) held by "
-        "reflecting walls of a 9 × 9 m box; β switches from 2 to 20 for every particle at once. Imitations run the project's "
+        "reflecting walls of a 9 × 9 m box; β switches from 2 to 20 for every particle at once. "
+        "Imitations run the project's "
         "controllers on the shipped photographs (`scenarios/inputs/`: digit 2 = scissor, digit 0 = "
         "cylindrical/hook, digit 9 = pinching; Weizmann wave2 frame 15 = arms sideways) on the vectorised "
         "reference driver, with the SPH settings of `coordinator/control/imitation_setup.py` (dt 0.02 s, drag 1.5 1/s)."

@@ -44,8 +44,8 @@ def record(setup: Setup, steps: int, controls=None, classes: np.ndarray | None =
     classes = setup.classes if classes is None else classes
     k = int(classes.max()) + 1
     d = driver or VectorisedDriver(setup.ids, setup.states, controls or setup.controls, setup.params)
-    rows = {name: [] for name in ("speed", "vx", "vy", "avy", "p")}
-    frozen = []
+    rows: dict[str, list[np.ndarray]] = {name: [] for name in ("speed", "vx", "vy", "avy", "p")}
+    frozen: list[int] = []
 
     def sample(s):
         rows["speed"].append(class_means(np.hypot(s[:, VX], s[:, VY]), classes, k))
@@ -59,4 +59,5 @@ def record(setup: Setup, steps: int, controls=None, classes: np.ndarray | None =
     for _ in range(steps):
         d.step()
         sample(d.states)
-    return Series(*(np.array(rows[n]) for n in ("speed", "vx", "vy", "avy", "p")), d.states.copy(), np.array(frozen))
+    speed, vx, vy, avy, p = (np.array(rows[n]) for n in ("speed", "vx", "vy", "avy", "p"))
+    return Series(speed, vx, vy, avy, p, d.states.copy(), np.array(frozen))

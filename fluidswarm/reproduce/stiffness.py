@@ -81,7 +81,8 @@ def measure(ctx: Context) -> list[Group]:
                     (
                         "the stiff middle's higher Tait pressure (eq. 3.13) pushes the soft edge bands apart"
                         if reading.startswith("text")
-                        else "stiff edges expand outwards on their own (their free side is ±y), which also widens the gap "
+                        else "stiff edges expand outwards on their own (their free side is ±y), which also widens "
+                        "the gap "
                         "between the bands' medians; the text's reading keeps the edges together as branches"
                     )
                     + (
@@ -161,11 +162,13 @@ def measure(ctx: Context) -> list[Group]:
                     (
                         "a stiff fluid converts its forward motion into sideways spreading: its x-velocity drops"
                         if reading.endswith("x-velocity")
-                        else "the speed counts the sideways escape too: a stiffer fluid expands faster (pressure ∝ β), so "
+                        else "the speed counts the sideways escape too: a stiffer fluid expands faster "
+                        "(pressure ∝ β), so "
                         "|v| rises although the forward velocity falls"
                     )
                     if a < b or reading.endswith("x-velocity")
-                    else "the stiff fluid's expansion adds sideways speed faster than pressure slows the forward motion",
+                    else "the stiff fluid's expansion adds sideways speed faster than pressure slows the forward "
+                    "motion",
                     f"{name}; reading: {reading}",
                 )
             )
@@ -313,11 +316,13 @@ def border_freeze(ctx: Context, g: Group) -> None:
             "their fluid parameters are set to 0); the middle's does not",
             "sudden drop of the edges only, near the end",
             f"free block, borders 3 m beyond its sides (freeze): first particle frozen at step {first}; at the end "
-            f"{100 * share['edges']:.0f} % of the edges and {100 * share['middle']:.0f} % of the middle frozen; edge mean "
+            f"{100 * share['edges']:.0f} % of the edges and {100 * share['middle']:.0f} % of the middle frozen; "
+            "edge mean "
             f"speed {peak_edge:.2f} → {v_edge[-1]:.2f} m/s, middle {v_mid[first] if first > 0 else float('nan'):.2f} → "
             f"{v_mid[-1]:.2f} m/s",
             _agree(share["edges"] > 0.2 and share["middle"] < 0.5 * share["edges"] and v_edge[-1] < 0.8 * peak_edge),
-            "the stiff middle's pressure drives the edge bands outwards, so they reach the side borders first; a frozen "
+            "the stiff middle's pressure drives the edge bands outwards, so they reach the side borders first; "
+            "a frozen "
             "particle counts with v = 0 (thesis §4.7, SPHParams.border = 'freeze'), which pulls its class mean down",
             "measurable (the thesis' domain size is not printed)",
         )

@@ -85,7 +85,8 @@ def measure(ctx: Context) -> list[Group]:
             "§6.3, Table 6.1",
             "a smaller step size makes the imitation take longer (7 vs 10)",
             f"time ratio step 7 / step 10: {thesis_ratios}",
-            f"reading 'step size = time step': scissor, region controller, {n_p} particles, {sim_seconds:g} s simulated "
+            f"reading 'step size = time step': scissor, region controller, {n_p} particles, {sim_seconds:g} s "
+            "simulated "
             f"on the reference driver: CPU {walls[1.0]:.2f} s ({steps[1.0]} steps) at dt 0.02, {walls[0.7]:.2f} s "
             f"({steps[0.7]} steps) at dt 0.014 (ratio {ratio:.2f}; 10/7 = 1.43)",
             Verdict.AGREE if ratio > 1.1 else Verdict.DISAGREE,

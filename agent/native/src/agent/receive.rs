@@ -100,7 +100,7 @@ impl Agent {
             return Ok(());
         }
         self.counters.msgs_received += 1;
-        let newer = self.latest.get(&j).map_or(true, |last| step as i64 >= last.0);
+        let newer = self.latest.get(&j).is_none_or(|last| step as i64 >= last.0);
         if newer {
             let now = Instant::now();
             self.latest.insert(j, (step as i64, values[X], values[Y]));

@@ -84,7 +84,7 @@ impl Agent {
                 .iter()
                 .copied()
                 .filter(|j| {
-                    !present(j) && !self.dead.contains(j) && !self.latest.get(j).is_some_and(|l| l.0 > step as i64)
+                    !present(j) && !self.dead.contains(j) && self.latest.get(j).is_none_or(|l| l.0 <= step as i64)
                 })
                 .collect();
             if missing.is_empty() {
