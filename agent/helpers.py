@@ -83,7 +83,7 @@ class Helpers:
                 continue
             try:
                 why = w.why()
-            except Exception:  # its last words are a courtesy, never a second failure
+            except Exception:  # noqa: BLE001  # its last words are a courtesy, never a second failure
                 why = ""
             self.lost = HelperLost(w.name, describe_exit(code), time.monotonic() - self.t0, self.step(), why)
             raise self.lost

@@ -42,7 +42,7 @@ class RecorderProcess:
         meta = dict(metadata)
         meta.setdefault("run", self.run)
         out = subprocess.DEVNULL if self.quiet else None
-        self._stderr = tempfile.TemporaryFile("w+")
+        self._stderr = tempfile.TemporaryFile("w+")  # noqa: SIM115  # lives as long as the recorder: closed in close()
         cmd = [
             sys.executable,
             "-m",

@@ -173,13 +173,17 @@ def readme_section(record: BenchRecord, fit_max_n: int) -> str:
     ok = {r.n: r for r in record.runs if isinstance(r, LockstepRun)}
     steps = sorted({r.steps for r in record.runs})
     lines = [
-        f"Measured {record.date[:10]} ({'quick' if record.quick else 'full'} run) on this {record.machine.cores}-core, "
-        f"{round(record.machine.memory_mb / 1024)} GiB machine: lockstep runs of {'/'.join(map(str, steps))} steps of "
-        "the `verify` set-up (all SPH terms active), the compiled agent, side by side with the centralised drivers "
-        "in the same run:",
+        (
+            f"Measured {record.date[:10]} ({'quick' if record.quick else 'full'} run) on this "
+            f"{record.machine.cores}-core, {round(record.machine.memory_mb / 1024)} GiB machine: lockstep runs of "
+            f"{'/'.join(map(str, steps))} steps of the `verify` set-up (all SPH terms active), the compiled agent, "
+            "side by side with the centralised drivers in the same run:"
+        ),
         "",
-        "| N agents | steps/s | start-up s | msgs/agent/step | neighbours | CPU µs/agent-step | RSS MB/agent "
-        "| per-particle central steps/s | vectorised steps/s | decentralised / per-particle time |",
+        (
+            "| N agents | steps/s | start-up s | msgs/agent/step | neighbours | CPU µs/agent-step | RSS MB/agent "
+            "| per-particle central steps/s | vectorised steps/s | decentralised / per-particle time |"
+        ),
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in record.runs:
@@ -245,11 +249,18 @@ def _targets(record: BenchRecord, ok: dict[int, LockstepRun]) -> str:
     else:
         rss = n300.rss_mb_per_agent
         parts += [
-            f"N = 300 ≥ {N300_STEPS_PER_SECOND} steps/s ({n300.steps_per_second:.1f}, "
-            f"{_mark(n300.steps_per_second >= N300_STEPS_PER_SECOND)})",
-            f"RSS ≤ {RSS_MB_PER_AGENT} MB per agent ({_f(rss, 1)}, {_mark(rss is not None and rss <= RSS_MB_PER_AGENT)})",
-            f"start-up of 300 agents ≤ {N300_STARTUP_SECONDS} s ({n300.startup_seconds:.2f}, "
-            f"{_mark(n300.startup_seconds <= N300_STARTUP_SECONDS)})",
+            (
+                f"N = 300 ≥ {N300_STEPS_PER_SECOND} steps/s ({n300.steps_per_second:.1f}, "
+                f"{_mark(n300.steps_per_second >= N300_STEPS_PER_SECOND)})"
+            ),
+            (
+                f"RSS ≤ {RSS_MB_PER_AGENT} MB per agent ({_f(rss, 1)}, "
+                f"{_mark(rss is not None and rss <= RSS_MB_PER_AGENT)})"
+            ),
+            (
+                f"start-up of 300 agents ≤ {N300_STARTUP_SECONDS} s ({n300.startup_seconds:.2f}, "
+                f"{_mark(n300.startup_seconds <= N300_STARTUP_SECONDS)})"
+            ),
         ]
     exp = record.step_time_exponent
     parts.append(f"exponent ≤ {EXPONENT} ({_f(exp, 3)}, {_mark(exp is not None and exp <= EXPONENT)})")
@@ -264,7 +275,8 @@ def _targets(record: BenchRecord, ok: dict[int, LockstepRun]) -> str:
     done = len(times) == len(record.gesture_imitation_seconds) and times
     span = f"{min(times):.0f}–{max(times):.0f} s" if times else "none finished"
     parts.append(
-        f"each {record.gesture_agents}-agent gesture imitation ≤ {GESTURE_SECONDS} s ({span}, {_mark(bool(done) and max(times) <= GESTURE_SECONDS)})"
+        f"each {record.gesture_agents}-agent gesture imitation ≤ {GESTURE_SECONDS} s "
+        f"({span}, {_mark(bool(done) and max(times) <= GESTURE_SECONDS)})"
     )
     return "**Targets (issue 14):** " + "; ".join(parts) + "."
 

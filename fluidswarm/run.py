@@ -281,7 +281,7 @@ class Run:
         o, la = self.options, self.launcher
         self.plan = plan
         la.track_progress()
-        self.injector = injector = FailureInjector(
+        self.injector = FailureInjector(
             la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
         )
         if o.progress:

@@ -1,6 +1,7 @@
 """Eigen-image hand classifier (thesis ch. 4), the thesis baseline and a better PCA pipeline.
 
-Thesis §4.3-4.4, method ``"eigen"`` (the thesis baseline; ``"baseline"`` is the same): every training image becomes a column of S (here: a row), grey
+Thesis §4.3-4.4, method ``"eigen"`` (the thesis baseline; ``"baseline"`` is the same): every training image
+becomes a column of S (here: a row), grey
 levels normalised; the mean image psi is subtracted (phi_i = img_i - psi); the eigenvectors u_k of the
 covariance C = (1/M) sum phi phi^T are found by the snapshot method (eigenvectors v of the M x M matrix
 A^T A give u = A v / |A v|, §4.3), the K with the largest eigenvalues are kept; an image's weights are

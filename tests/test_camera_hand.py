@@ -31,7 +31,7 @@ def clf():
 
 
 def photo(shared_hands: Path, cls: int) -> np.ndarray:
-    return load_image(sorted((shared_hands / str(cls)).iterdir())[-1])
+    return load_image(max((shared_hands / str(cls)).iterdir()))
 
 
 def write_video(path: Path, pictures: list[np.ndarray], seconds: float = 6.0, fps: float = 8.0) -> Path:

@@ -5,6 +5,7 @@ faults between hosts", has the table of what each does and how long the swarm ta
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 import threading
@@ -22,7 +23,7 @@ KW = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 RATE = "512kbit"  # the bandwidth cap each way: below what the run uses unhindered (docs/multi-host.md)
 
 
-def split(hosts, command: list[str], run: str, a_extra=(), b_extra=()) -> tuple[subprocess.Popen, subprocess.Popen]:
+def split(hosts, command: list[str], run: str, a_extra=(), b_extra=()) -> tuple[subprocess.Popen, subprocess.Popen]:  # noqa: F811  # the hosts fixture, imported for pytest
     """The two launchers of one run, host A's slice first."""
     a, b = hosts.addr[("a", "b")], hosts.addr[("b", "a")]
     half = AGENTS // 2
@@ -56,8 +57,7 @@ class Output:
 
     @staticmethod
     def _read(stream, into: list) -> None:
-        for line in stream:
-            into.append(line)
+        into.extend(stream)
 
     def wait(self, timeout: float) -> tuple[int | None, str, str]:
         """(exit code or None if still running after `timeout` s, stdout, stderr)."""
@@ -108,7 +108,7 @@ with session as s:
 class Observer:
     """The OBSERVER process in host A, its lines read as they come: (wall time, highest step)."""
 
-    def __init__(self, hosts, run: str):
+    def __init__(self, hosts, run: str):  # noqa: F811  # the hosts fixture, imported for pytest
         from agent.protocol.access import read_users_file
 
         rec = {c.user: c for c in read_users_file(str(hosts.users))}["recorder"]
@@ -152,7 +152,7 @@ class Observer:
     def longest_gap(self, t0: float, t1: float) -> float:
         """The longest time between two step advances seen within [t0, t1]."""
         times = [t0] + [u for u, _ in self.steps if t0 < u < t1] + [t1]
-        return max(b - a for a, b in zip(times, times[1:]))
+        return max(b - a for a, b in itertools.pairwise(times))
 
     def close(self) -> None:
         self.proc.stdin.close()
@@ -175,7 +175,7 @@ def figures(r: dict) -> dict:
     return {k: r[k] for k in ("finished", "steps_per_second", "longest_stall_seconds", "wall_seconds")}
 
 
-def test_a_two_second_partition_heals_and_the_split_run_stays_exact(hosts):
+def test_a_two_second_partition_heals_and_the_split_run_stays_exact(hosts):  # noqa: F811  # the hosts fixture, imported for pytest
     obs = Observer(hosts, "cut2")
     pa, pb = (Output(p) for p in split(hosts, ["verify", "--steps", "400"], "cut2"))
     try:
@@ -204,7 +204,7 @@ def test_a_two_second_partition_heals_and_the_split_run_stays_exact(hosts):
     assert stall >= 1.5  # the partition came mid-run and stopped the stepping while it lasted
 
 
-def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finishes(hosts, tmp_path):
+def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finishes(hosts, tmp_path):  # noqa: F811  # the hosts fixture, imported for pytest
     mcap = tmp_path / "a.mcap"
     steps = 1500
     obs = Observer(hosts, "cut13")
@@ -253,14 +253,14 @@ def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finis
     assert max(fa["longest_stall_seconds"], record(out_b)["longest_stall_seconds"]) >= 8.0
 
 
-def test_five_percent_packet_loss_on_the_link_completes_exact(hosts):
+def test_five_percent_packet_loss_on_the_link_completes_exact(hosts):  # noqa: F811  # the hosts fixture, imported for pytest
     hosts.drop_randomly("b", "a", 5)
     pa, pb = (Output(p) for p in split(hosts, ["verify", "--steps", "200"], "drop5"))
     fa, fb = exact(*pa.wait(240), AGENTS // 2), exact(*pb.wait(240), AGENTS // 2)
     print({"a": figures(fa), "b": figures(fb)})
 
 
-def test_a_bandwidth_cap_on_the_link_completes_exact(hosts):
+def test_a_bandwidth_cap_on_the_link_completes_exact(hosts):  # noqa: F811  # the hosts fixture, imported for pytest
     hosts.cap_bandwidth("b", "a", RATE)
     pa, pb = (Output(p) for p in split(hosts, ["verify", "--steps", "150"], "cap"))
     fa, fb = exact(*pa.wait(240), AGENTS // 2), exact(*pb.wait(240), AGENTS // 2)

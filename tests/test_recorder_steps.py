@@ -208,7 +208,7 @@ def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_the
 
 
 def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorder):
-    rec, clock, path = recorder
+    rec, _clock, path = recorder
     for k in range(10):
         for j in (0, 1, 2) if k < 4 or k >= 7 else (0, 1):  # agent 2 froze after step 3, rejoined at step 7
             post(rec, j, k)

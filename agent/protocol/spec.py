@@ -155,7 +155,7 @@ class AgentSpec:
 
     def robot_model(self) -> RobotModel:
         if not isinstance(self.robot, dict):
-            raise ValueError(f"agent spec: robot must be an object, got {self.robot!r}")
+            raise ValueError(f"agent spec: robot must be an object, got {self.robot!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
         try:
             return RobotModel(**self.robot)
         except TypeError as exc:
@@ -163,7 +163,7 @@ class AgentSpec:
 
     def sph_params(self) -> SPHParams:
         if not isinstance(self.params, dict):
-            raise ValueError(f"agent spec: params must be an object, got {self.params!r}")
+            raise ValueError(f"agent spec: params must be an object, got {self.params!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
         p = dict(self.params)
         try:
             if "domain" in p:

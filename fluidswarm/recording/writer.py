@@ -182,7 +182,7 @@ class RunWriter:
                     flushed = time.monotonic()
                 elif not self._unflushed:
                     flushed = time.monotonic()
-        except BaseException as exc:  # reported by close() and the next write
+        except BaseException as exc:  # noqa: BLE001  # reported by close() and the next write
             self._error = exc
         finally:
             try:
