@@ -79,12 +79,13 @@ class Pacer:
     def realtime_factor(self) -> float | None:
         """Simulated seconds / wall seconds of the swarm's run: the newest step over the time from the
         start to its first sighting (1.0: as fast as the wall clock; None before mark_start or a step)."""
-        if self.started_at is None or self.max_step < 1:
+        if self.started_at is None or self.dt is None or self.max_step < 1:
             return None
         wall = self.step_times[self.max_step] - self.started_at
         return self.max_step * self.dt / wall if wall > 0 else None
 
     def _wall_step(self, now: float) -> int:
+        assert self.started_at is not None and self.dt is not None  # paced only after mark_start
         return max(0, int((now - self.started_at) / self.dt) - CLOCK_LEAD - 1)
 
     def _on_state(self, sample) -> None:

@@ -9,6 +9,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import IO
 
 from agent.protocol import keys
 from agent.protocol.errors import UserError
@@ -23,7 +24,7 @@ class RecorderProcess:
         self.run, self.endpoint, self.session, self.env, self.quiet = run, endpoint, session, env, quiet
         self.id_keys = id_keys  # the agents put states on their id keys (per-process rights)
         self.proc: subprocess.Popen | None = None
-        self._stderr = None  # its error output (a file, never a pipe it could fill), for last_words()
+        self._stderr: IO[str] | None = None  # its error output (a file, never a pipe it could fill), for last_words()
 
     def start(
         self,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,8 @@ def experiment_setup(sc: Scenario, agents: int):
     from agent.sph import setups
     from agent.sph.robot import POINT
 
-    base = {"branching": setups.branching, "drag": setups.drag}[sc.experiment]
+    bases: dict[str, Callable[..., setups.Setup]] = {"branching": setups.branching, "drag": setups.drag}
+    base = bases[sc.experiment]
     setup = base(agents)
     if sc.sph or sc.dt:
         setup = base(agents, params=setup.params.with_overrides(sc.sph, sc.dt))

@@ -60,7 +60,7 @@ def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float
 
 def read_events(folder: Path) -> list[dict]:
     """The coordinator's events.jsonl (coordinator/camera.py EventLog); a torn last line is left out."""
-    out = []
+    out: list[dict] = []
     try:
         lines = (folder / "events.jsonl").read_text().splitlines()
     except OSError:

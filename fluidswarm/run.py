@@ -237,7 +237,7 @@ class Run:
                 shutil.rmtree(self._scratch, ignore_errors=True)
         if exc_type is None and self.result is not None:
             self.result.exit_codes.update(codes)
-            self.record = self._summarise()
+            self.record = self._summarise(self.result)
             self._behind_real_time()
             self.kind.score(self)
 
@@ -281,7 +281,7 @@ class Run:
         o, la = self.options, self.launcher
         self.plan = plan
         la.track_progress()
-        self.injector = FailureInjector(
+        self.injector = injector = FailureInjector(
             la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
         )
         if o.progress:
@@ -291,7 +291,7 @@ class Run:
             la.pacer.mark_start(plan.setup.params.dt)
             if o.realtime:
                 la.pacer.pace_realtime()
-            self.injector.start()
+            injector.start()
             for fn in self._on_start:
                 fn()
 

@@ -93,6 +93,6 @@ def hand_hog(images: list[np.ndarray], masks: list[np.ndarray | None] | None = N
         grey, sil = hand_crops(im, None if masks is None else masks[k])
         parts = []
         for d in descriptors:
-            parts += [d.compute(grey).ravel(), SILHOUETTE_WEIGHT * d.compute(sil).ravel()]
+            parts += [np.asarray(d.compute(grey)).ravel(), SILHOUETTE_WEIGHT * np.asarray(d.compute(sil)).ravel()]
         out.append(np.sqrt(np.concatenate(parts)))
     return np.array(out, np.float32)

@@ -29,7 +29,13 @@ class StreamError(InputError):
 
 
 class StreamEnded(StreamError):
-    """The source ended. A video file ends so at its last frame (`FrameStream.is_file`): a normal end."""
+    """The source ended. A video file ends so at its last frame (`FrameStream.is_file`): a normal end.
+    The camera's coordinator adds what it had seen (coordinator/camera.py) before it re-raises."""
+
+    is_file: bool = False
+    frames: int = 0
+    commanded: bool = False
+    subject: str | None = None
 
 
 @dataclass(frozen=True)

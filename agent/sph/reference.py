@@ -111,7 +111,7 @@ class Driver:
 
     def __init__(
         self,
-        ids: Sequence[int],
+        ids: Sequence[int] | np.ndarray,
         states: np.ndarray,
         controls: Sequence[ControlSource],
         params: SPHParams,

@@ -187,7 +187,7 @@ class Recorder:
         for j, first_missing in list(self.dead_at.items()):
             if first_missing > self.next_step:
                 continue
-            left = LEFT.get(self.reported.get(j))
+            left = LEFT.get(self.reported[j]) if j in self.reported else None
             if left is None and not force and now - self.gone_at.get(j, now) < REPORT_GRACE_SECONDS:
                 continue  # its report may still be on the way
             del self.dead_at[j]

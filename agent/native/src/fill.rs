@@ -164,16 +164,3 @@ mod tests {
         assert!(edges_cross(&[square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)]));
     }
 }
-
-/// `zone_material`: (beta, mu) of the first zone (an ellipse) that holds (x, y); the given ones where none does.
-pub fn zone_material(zones: &[Zone], x: f64, y: f64, beta: f64, mu: f64) -> (f64, f64) {
-    for z in zones {
-        let (dx, dy) = (x - z.x, y - z.y);
-        let p = (dx * z.ux + dy * z.uy) / z.a;
-        let q = (dy * z.ux - dx * z.uy) / z.b;
-        if p * p + q * q <= 1.0 {
-            return (z.beta, z.mu);
-        }
-    }
-    (beta, mu)
-}
