@@ -13,6 +13,7 @@ import pytest
 from agent.protocol import keys
 from agent.protocol.stopping import stop_on_signals
 from agent.protocol.wire import encode_state
+from agent.sph.particle import NFIELDS
 from fluidswarm.recording import steps
 from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.recorder import record
@@ -43,7 +44,7 @@ def recorder(tmp_path, monkeypatch):
 
 
 def post(rec, agent: int, step: int) -> None:
-    state = np.zeros(10)
+    state = np.zeros(NFIELDS)
     state[0], state[1], state[4] = agent, step * 0.01, 1.0  # x, y, rho (> 0: a real density)
     rec.inbox.put((0, (encode_state(agent, step, state), keys.cell_key(RUN, 0, 0))))
 

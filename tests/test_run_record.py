@@ -162,6 +162,7 @@ def test_imitate_lines_and_json_say_the_same(capsys):
         "formation_wall_seconds",
         "formation_settled",
         "agents_finished",
+        "robot",
         "steps_per_second",
         "mcap",
         "png",

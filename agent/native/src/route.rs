@@ -219,7 +219,7 @@ mod tests {
     fn static_until_a_command() {
         let mut cf = CommandFollower::new(vec![1, 2, 3], 0, Control::default());
         assert!(!cf.has_command());
-        assert_eq!(cf.control(&[0.0; 10]), Control::default());
+        assert_eq!(cf.control(&[0.0; crate::sph::NFIELDS]), Control::default());
         assert_eq!(cf.offer(b"junk", 1.0), Some("malformed"));
         let r = cf.report();
         assert_eq!((r.waypoint_index, r.first_command_at), (-1, None));

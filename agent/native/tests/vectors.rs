@@ -172,7 +172,7 @@ fn command_follower_sequences() {
                 assert_eq!(got, step["expect"].as_str(), "{what}");
                 assert_eq!(Value::Bool(follower.has_command()), step["has_command"], "{what}");
             } else {
-                let mut state = [0.0; 10];
+                let mut state = [0.0; fluidswarm_agent::sph::NFIELDS];
                 state[0] = f(&step["control"][0]);
                 state[1] = f(&step["control"][1]);
                 same_control(&follower.control(&state), &step["expect"], &what);
