@@ -33,9 +33,7 @@ impl Agent {
             if self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) {
                 self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = true;
                 while self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) && !self.behind {
-                    if let Err(h) = self.drain(0.05) {
-                        return Err(h);
-                    }
+                    self.drain(0.05)?;
                 }
                 self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = false;
                 if self.behind {
