@@ -146,7 +146,9 @@ mod tests {
         let deep = format!("{}{}", "[".repeat(10000), "]".repeat(10000));
         assert_eq!(decode(&sign(&deep), SECRET), Err(MALFORMED));
         // the body, extra, then d arrays: MAX_DEPTH deep at d = MAX_DEPTH - 2
-        let at = |d: usize| BODY.replacen("\"extra\":{}", &format!("\"extra\":{{\"d\":{}{}}}", "[".repeat(d), "]".repeat(d)), 1);
+        let at = |d: usize| {
+            BODY.replacen("\"extra\":{}", &format!("\"extra\":{{\"d\":{}{}}}", "[".repeat(d), "]".repeat(d)), 1)
+        };
         assert!(decode(&sign(&at(MAX_DEPTH - 2)), SECRET).is_ok());
         assert_eq!(decode(&sign(&at(MAX_DEPTH - 1)), SECRET), Err(MALFORMED));
     }
