@@ -212,7 +212,7 @@ mod tests {
             (r#"{"kind":"unicycle","radius":-1}"#, "robot.radius"),
             (r#"{"kind":"unicycle","radius":0}"#, "robot.radius"),
             (r#"{"kind":"holonomic","a_max":0}"#, "robot.a_max"),
-            (r#"{"kind":"unicycle","v_max":1e400}"#, "robot.v_max"),
+            (r#"{"kind":"unicycle","v_max":1e400}"#, "out of range"), // serde_json (float_roundtrip) refuses it while parsing
             (r#"{"kind":"unicycle","v_max":5}"#, "robot.v_max"),
             (r#"{"kind":"unicycle","wheels":2}"#, "robot.\"wheels\""),
             ("3", "robot must be an object"),
