@@ -62,8 +62,10 @@ def state(data: bytes) -> None:
             assert wire.peek_id_position(data) == (None, reason)
         return
     agent_id, step, cls, values = rec
-    assert reason is None and len(values) == 10
-    assert all(math.isfinite(v) and abs(v) <= wire.MAX_ABS for v in values[:9]) and values[4] > 0
+    assert reason is None and len(values) == 12  # v2: the 9 SPH fields, the frozen flag, heading, forward speed
+    finite = values[:9] + values[10:]
+    assert all(math.isfinite(v) and abs(v) <= wire.MAX_ABS for v in finite) and values[4] > 0
+    assert -math.pi <= values[10] <= math.pi
     assert values[9] in (0.0, 1.0) and 0 <= agent_id <= wire.MAX_ID
     assert wire.encode_state(agent_id, step, values, cls) == data[:14] + b"\0\0" + data[16:], "re-encode"
     assert wire.peek_id_step(data) == (agent_id, step)
