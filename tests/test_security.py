@@ -63,7 +63,7 @@ if session is not None:
     did["connected"] = 1
     def forge(sample):
         data = bytearray(sample.payload.to_bytes())
-        if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
+        if len(data) != 104 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
             return
         agent, = struct.unpack_from("<I", data, 4)
         if agent % 7 == 3:
@@ -180,7 +180,7 @@ did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wild
 WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
 def forge(sample):
     data = bytearray(sample.payload.to_bytes())
-    if len(data) != 88 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
+    if len(data) != 104 or struct.unpack_from("<H", data, 12)[0] == 0x7777:
         return
     x, y = struct.unpack_from("<2d", data, 16)
     struct.pack_into("<d", data, 16, x + 0.3)
@@ -239,7 +239,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
         key, data = str(sample.key_expr), sample.payload.to_bytes()
         if "*" in key:
             seen["wildcard"] += 1
-        elif "/state/" in key and len(data) == 88 and int.from_bytes(data[12:14], "little") == MARK:
+        elif "/state/" in key and len(data) == 104 and int.from_bytes(data[12:14], "little") == MARK:
             seen["forged_own_key" if keys.id_from_key(key) == 16 else "forged_other_ids"] += 1
         elif "/ctl/" in key and (key.rsplit("/", 1)[1], data) in ROGUE_CTL:  # not the launcher's own
             seen["ctl"] += 1
