@@ -85,7 +85,7 @@ top = [-1]
 lock = threading.Lock()
 def seen(sample):
     data = sample.payload.to_bytes()
-    if len(data) != 88:
+    if len(data) != 104:  # a v2 state record (agent/protocol/wire.py STATE_SIZE)
         return
     (step,) = struct.unpack_from("<I", data, 8)
     with lock:
