@@ -15,10 +15,10 @@ AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
-$(STAMP): pyproject.toml setup.py
+$(STAMP): pyproject.toml setup.py constraints.txt
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,lint]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
 	touch $(STAMP)
 
 # One cargo build makes both programs: the agent and the router of access level acl (agent/router_process.py)
@@ -56,7 +56,7 @@ FUZZ_STAMP := $(VENV)/.fuzz-installed
 CARGO_FUZZ_VERSION := 0.13.2
 
 $(FUZZ_STAMP): $(STAMP) pyproject.toml
-	$(BIN)/python -m pip install --quiet -e '.[test,fuzz]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,fuzz]'
 	touch $(FUZZ_STAMP)
 
 fuzz: $(FUZZ_STAMP)
