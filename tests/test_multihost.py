@@ -182,7 +182,20 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
         env=hosts.env["b"],
         **kw,
     )
-    time.sleep(9.0)  # start-up, then some lockstep steps with both hosts
+
+    # The cut comes once both hosts step together: 20 steps in host A's record (flushed every 0.5 s, read while
+    # it is written). A fixed 9 s sleep raced the start-up on a loaded machine: router B was cut before its
+    # agents were ready, so host A waited out its start-up timeout instead of losing them mid-run.
+    def stepped() -> bool:
+        try:
+            return mcap.exists() and len(load_run(mcap, images=False).frames) >= 20
+        except Exception:  # noqa: BLE001  # a file still being written: only its header yet
+            return False
+
+    deadline = time.monotonic() + 120
+    while not stepped():
+        assert time.monotonic() < deadline and pa.poll() is None, "host A never recorded 20 steps"
+        time.sleep(0.5)
     router_b = hosts.procs[1]
     router_b.kill()
     out_a, err_a = pa.communicate(timeout=300)
