@@ -11,7 +11,7 @@ AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
 ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
 
-.PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt
+.PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt scenarios
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
@@ -33,14 +33,19 @@ install: $(STAMP) $(AGENT_BIN) $(ROUTER_BIN)
 demo: install
 	$(BIN)/fluidswarm demo
 
-# Unit tests first (no processes, about a minute), then the swarm tests (tests/conftest.py draws the line);
-# both always run: the swarm tests run even when a unit test failed, and `make test` fails if either did.
-# The swarm tests list their slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
+# Unit tests first (no processes, on both cores: pytest-xdist), then the swarm tests (tests/conftest.py draws
+# the line), one at a time: they measure stalls and recovery times in wall seconds. Both always run: the swarm
+# tests run even when a unit test failed, and `make test` fails if either did. The swarm tests list their
+# slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
 test: install netfault-tools lint
 	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
-	$(BIN)/python -m pytest -q -m "not swarm" tests; unit=$$?; \
-	$(BIN)/python -m pytest -q -m swarm --durations=10 tests; swarm=$$?; \
+	$(BIN)/python -m pytest -q -n 2 -m "not swarm" tests; unit=$$?; \
+	$(BIN)/python -m pytest -q -m "swarm and not every_scenario" --durations=10 tests; swarm=$$?; \
 	test $$unit -eq 0 -a $$swarm -eq 0
+
+# Every small scenario end to end (make test runs one of each kind, tests/test_scenarios.py CORE)
+scenarios: install
+	$(BIN)/python -m pytest -q -m every_scenario --durations=10 tests/test_scenarios.py
 
 # The network-fault tests (tests/test_netfaults.py) need nftables; CI runs as root on a fresh machine.
 netfault-tools:
