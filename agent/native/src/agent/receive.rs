@@ -65,7 +65,7 @@ impl AgentCore {
             Some(reason) => *self.counters.rejected.entry(format!("command_{reason}")).or_insert(0) += 1,
             None => {
                 if first && ctl.has_command() {
-                    let since = unix - self.session_opened_at;
+                    let since = now - self.opened_at;
                     self.event(EventKind::CommandReceived { seconds_since_session_open: since });
                 }
             }
