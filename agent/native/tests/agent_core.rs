@@ -1,6 +1,7 @@
 //! The agent's core (agent.rs) driven by the message sequences of tests/vectors/agent_core/*.json, one test
 //! per file: a spec and a list of calls, each a time, the inputs handed over at it and the actions expected
-//! back (docs/protocol.md, "Failures"). No session, no process, no clock: each sequence runs in milliseconds.
+//! back (docs/protocol.md, "Failures": every row names its sequence). No session, no process, no clock: each
+//! sequence runs in milliseconds.
 //!
 //! A file: {"about", "spec": fields over the defaults of `spec_of`, "follower"?: true, "calls": [{"t",
 //! "in": [...], "out": [...], "step"}]}. Inputs: {"state": {"id", "step", "x", "y", "vx"?, "vy"?},
@@ -233,4 +234,28 @@ fn every_sequence_file_is_a_test() {
         .collect();
     names.sort();
     assert_eq!(names, LISTED, "add the new file to sequences!()");
+}
+/// Every row of docs/protocol.md's failure table names a sequence file that exists.
+#[test]
+fn the_failure_table_names_existing_sequences() {
+    let doc: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "docs", "protocol.md"].iter().collect();
+    let text = std::fs::read_to_string(doc).unwrap();
+    let table: Vec<&str> = text
+        .split("## Failures")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'))
+        .skip(2)
+        .collect();
+    assert!(table.len() >= 10, "rows: {table:?}");
+    for row in table {
+        let cell = row.trim_end_matches('|').rsplit('|').next().unwrap().trim();
+        let names: Vec<&str> = cell.split(['`', ',', ' ']).filter(|n| n.ends_with(".json")).collect();
+        assert!(!names.is_empty(), "no sequence named in: {row}");
+        for n in names {
+            assert!(dir().join(n).is_file(), "{n} (named in the failure table) is not in tests/vectors/agent_core");
+        }
+    }
 }
