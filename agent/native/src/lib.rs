@@ -4,7 +4,6 @@
 //! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl, event and final_report
 //! (agent/protocol/ctl.py, events.py, report.py).
 
-#[cfg(feature = "net")]
 pub mod agent;
 pub mod command;
 pub mod ctl;
@@ -17,6 +16,8 @@ pub mod robot;
 pub mod route;
 #[cfg(feature = "net")]
 pub mod session;
+#[cfg(feature = "net")]
+pub mod shell;
 pub mod spec;
 pub mod sph;
 pub mod wire;

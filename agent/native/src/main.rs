@@ -4,9 +4,10 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use fluidswarm_agent::agent::{Agent, EXIT_STOPPED, STOP};
+use fluidswarm_agent::agent::EXIT_STOPPED;
 use fluidswarm_agent::route::CommandFollower;
 use fluidswarm_agent::session::{client_config, env_credentials};
+use fluidswarm_agent::shell::{self, STOP};
 use fluidswarm_agent::spec::{unhex, AgentSpec};
 use zenoh::Wait;
 
@@ -56,18 +57,13 @@ fn fail(msg: &str) -> ! {
     std::process::exit(2)
 }
 
-/// Zenoh's runtimes (app, rx, tx, acc, net) each start threads; FLUIDSWARM_AGENT_RUNTIME picks a layout
-/// for the agent process only (measured in docs/benchmarks; ZENOH_RUNTIME itself would also reach the
-/// launcher's router, which needs its threads).
+/// Zenoh's runtimes (app, rx, tx, acc, net) each start threads. The agent runs one receiving thread (which
+/// also runs our callbacks) and one for the rest: at N = 300 that ran 1.23x the steps/s of zenoh's own
+/// default layout (docs/benchmarks/native.md). zenoh reads its layout only from ZENOH_RUNTIME, so it is set
+/// here for this process alone (in the launcher's environment it would also reach its router, which needs
+/// its threads).
 fn choose_runtime() {
-    let layout = match std::env::var("FLUIDSWARM_AGENT_RUNTIME").as_deref() {
-        Ok("one") => "(app:(worker_threads:1,max_blocking_threads:1),rx:(handover:app),tx:(handover:app),acc:(handover:app),net:(handover:app))",
-        Ok("two") => "(app:(worker_threads:2,max_blocking_threads:1),rx:(handover:app),tx:(handover:app),acc:(handover:app),net:(handover:app))",
-        Ok("default") => return,
-        // The default: one receiving thread (which also runs our callbacks) and one for the rest.
-        // At N = 300 it ran 1.23x the steps/s of zenoh's own default layout (docs/benchmarks).
-        _ => "(rx:(worker_threads:1),app:(worker_threads:1),acc:(handover:app),net:(handover:app))",
-    };
+    let layout = "(rx:(worker_threads:1),app:(worker_threads:1),acc:(handover:app),net:(handover:app))";
     // SAFETY: called first thing in main, before any other thread exists.
     unsafe { std::env::set_var("ZENOH_RUNTIME", layout) };
 }
@@ -106,9 +102,7 @@ fn main() {
     if STOP.load(Ordering::SeqCst) {
         std::process::exit(EXIT_STOPPED);
     }
-    let mut agent = Agent::new(spec, controller, session.clone());
-    let code = agent.run();
-    drop(agent);
+    let code = shell::run(spec, controller, session.clone());
     let _ = session.close().wait();
     std::process::exit(code)
 }

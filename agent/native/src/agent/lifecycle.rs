@@ -1,15 +1,7 @@
-//! The agent's life: start-up (fixed subscribers, the gesture command, the alive token, the start barrier or a
-//! late join), the run in its mode, and its end (final state, report, exit code).
+//! The agent's life: start-up (its cells, the gesture command, the alive token, the start barrier or a late
+//! join), rejoining after a freeze, and its end (final state, report, exit code).
 
-use std::sync::atomic::Ordering;
-use std::sync::Arc;
-use std::time::{Duration, Instant};
-
-use zenoh::Wait;
-
-use super::inbox::Msg;
-use super::report::cpu_seconds;
-use super::{unix_now, Agent, Halt, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, STOP};
+use super::{Action, AgentCore, Halt, Lock, Phase, Wake, EXIT_NO_START, EXIT_OK, EXIT_STOPPED, SLICE};
 use crate::event::EventKind;
 use crate::final_report::Status;
 use crate::keys;
@@ -17,72 +9,89 @@ use crate::spec::Mode;
 use crate::sph::{X, Y};
 use crate::wire;
 
-impl Agent {
-    pub fn run(&mut self) -> i32 {
-        let code = match self.run_inner() {
-            Ok(()) => {
-                self.t_end = Some(unix_now());
-                self.publish(); // the final state, so neighbours still waiting for it are not held up
-                self.report(Status::Done);
-                EXIT_OK
-            }
-            Err(Halt::Stop) => {
-                self.report(Status::Stopped);
-                EXIT_STOPPED
-            }
-            Err(Halt::NoStart) => EXIT_NO_START,
-        };
-        self.close_state_bus();
-        self._fixed.clear();
-        self.flush();
-        code
+impl AgentCore {
+    /// The first call: the cells around the start position, then the command (a follower) or the token.
+    pub(super) fn setup(&mut self, now: f64) -> Option<Phase> {
+        self.update_cells();
+        let deadline = now + self.spec.start_timeout;
+        if self.controller.is_some() && !self.spec.join {
+            return Some(Phase::AwaitCommand { deadline });
+        }
+        Some(self.alive(deadline))
     }
 
-    fn run_inner(&mut self) -> Result<(), Halt> {
-        let declared =
-            self.declare_fixed().and_then(|_| self.declare_state_key()).and_then(|_| self.update_subscriptions());
-        if let Err(e) = declared {
-            eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
-            return Err(Halt::Stop);
+    /// Ready only once the gesture command is known, so every agent applies it from step 0.
+    pub(super) fn await_command(&mut self, now: f64, deadline: f64) -> Option<Phase> {
+        if self.controller.as_ref().is_some_and(|c| c.has_command()) {
+            return Some(self.alive(deadline));
         }
-        let start_deadline = Instant::now() + Duration::from_secs_f64(self.spec.start_timeout);
-        if self.controller.is_some() && !self.spec.join {
-            // Ready only once the gesture command is known, so every agent applies it from step 0.
-            while !self.controller.as_ref().is_some_and(|c| c.has_command()) {
-                if Instant::now() > start_deadline {
-                    return Err(Halt::NoStart);
-                }
-                self.drain(0.25)?;
-            }
+        if now > deadline {
+            return self.halt_with(Halt::NoStart);
         }
-        // The alive token last: the launcher's start barrier waits for it, so when the swarm starts every
-        // agent's state subscriptions are declared and no step-0 state is missed.
-        match self.session.liveliness().declare_token(keys::alive_key(&self.spec.run, self.spec.id)).wait() {
-            Ok(t) => self._tokens.push(t),
-            Err(e) => {
-                eprintln!("fluidswarm agent {}: error: {e}", self.spec.id);
-                return Err(Halt::Stop);
-            }
-        }
+        self.phase = Phase::AwaitCommand { deadline };
+        self.sleep(now + SLICE, Wake::default());
+        None
+    }
+
+    /// The alive token last: the launcher's start barrier waits for it, so when the swarm starts every agent's
+    /// state subscriptions are declared and no step-0 state is missed.
+    fn alive(&mut self, deadline: f64) -> Phase {
+        self.out.push(Action::DeclareAlive);
         if self.spec.join {
-            self.join(start_deadline)?;
+            Phase::Joining { deadline }
         } else {
-            while !self.started {
-                if Instant::now() > start_deadline {
-                    return Err(Halt::NoStart);
-                }
-                self.drain(0.25)?;
-            }
+            Phase::AwaitStart { deadline }
+        }
+    }
+
+    pub(super) fn await_start(&mut self, now: f64, deadline: f64) -> Option<Phase> {
+        if self.started {
             self.initial_neighbours();
+            return Some(Phase::Begin);
         }
+        if now > deadline {
+            return self.halt_with(Halt::NoStart);
+        }
+        self.phase = Phase::AwaitStart { deadline };
+        self.sleep(now + SLICE, Wake::default());
+        None
+    }
+
+    /// A late joiner waits for the first state it hears around it (docs/protocol.md, "Late joiners").
+    pub(super) fn await_first_state(&mut self, now: f64, deadline: f64) -> Option<Phase> {
+        if self.started {
+            return Some(Phase::Begin); // join_on adopted a step
+        }
+        if now > deadline {
+            return self.halt_with(Halt::Stop);
+        }
+        self.phase = Phase::Joining { deadline };
+        self.sleep(now + SLICE, Wake { on_state: true, ..Wake::default() });
+        None
+    }
+
+    /// A state heard while joining: another agent's, on its cell key, gives the step (that step + 1). Any other
+    /// record is passed over; those after it in the same batch are received as usual.
+    pub(super) fn join_on(&mut self, record: &[u8], on_key: bool) {
+        if let Ok(rec) = wire::decode_state(record) {
+            if rec.id != self.spec.id && on_key {
+                self.step = rec.step.saturating_add(1);
+                self.started = true;
+                self.buffer.clear();
+                self.phase = Phase::Begin;
+            }
+        }
+    }
+
+    /// Started or joined: say so, and run in the spec's mode.
+    pub(super) fn begin(&mut self, now: f64) -> Option<Phase> {
         self.event(EventKind::Started);
-        self.t_start = Some(unix_now());
-        self.cpu_at_start = Some(cpu_seconds());
-        self.last_step_done = Instant::now();
-        match self.spec.mode {
-            Mode::Lockstep => self.run_lockstep(),
-            Mode::Async => self.run_async(),
-        }
+        self.t_start = Some(self.unix(now));
+        self.last_step_done = now;
+        Some(match self.spec.mode {
+            Mode::Lockstep => Phase::Lockstep(Lock::Top),
+            Mode::Async => Phase::Async { due: now },
+        })
     }
 
     /// Step-0 neighbours: of the agents the launcher placed nearby (the spec's `neighbours`), those whose
@@ -102,11 +111,11 @@ impl Agent {
     }
 
     /// A stalled agent (SIGSTOP, a host that froze) whose neighbours went on without it rejoins as a late joiner
-    /// does (docs/protocol.md, "Rejoining"): it takes what was queued while it was frozen, adopts the step after
-    /// the newest it heard from those neighbours, forgets its own older steps' states, and says so (`rejoined`,
-    /// with the step it was at). Its particle keeps the state it froze with; at the swarm's last step it is done.
-    pub(super) fn rejoin(&mut self) -> Result<(), Halt> {
-        self.drain(0.0)?; // the rest of the backlog: the newest sightings
+    /// does (docs/protocol.md, "Rejoining"): with what was queued while it was frozen (the whole batch has been
+    /// received), it adopts the step after the newest it heard from those neighbours, forgets its own older
+    /// steps' states, and says so (`rejoined`, with the step it was at). Its particle keeps the state it froze
+    /// with; at the swarm's last step it is done.
+    pub(super) fn rejoin(&mut self, now: f64) {
         let from = self.step;
         let newest = self.ahead_senders.iter().filter_map(|j| self.latest.get(j)).map(|l| l.0).max();
         if let Some(s) = newest {
@@ -118,55 +127,30 @@ impl Agent {
         self.ahead_senders.clear();
         let step = self.step;
         self.buffer.retain(|&s, _| s >= step);
-        self.last_step_done = Instant::now();
+        self.last_step_done = now;
         self.event(EventKind::Rejoined { from_step: from });
-        Ok(())
     }
 
-    /// A late joiner adopts the step of the first state it hears around it (docs/protocol.md).
-    fn join(&mut self, deadline: Instant) -> Result<(), Halt> {
-        self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_state = true;
-        let result = self.await_first_state(deadline);
-        self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_state = false;
-        result
+    /// The last step reached: the final state (so neighbours still waiting for it are not held up), the report.
+    pub(super) fn finish(&mut self, now: f64, status: Status) -> Option<Phase> {
+        self.t_end = Some(self.unix(now));
+        self.publish();
+        self.report(status);
+        self.out.push(Action::Exit(EXIT_OK));
+        self.phase = Phase::Ended;
+        None
     }
 
-    fn await_first_state(&mut self, deadline: Instant) -> Result<(), Halt> {
-        loop {
-            if STOP.load(Ordering::Relaxed) {
-                return Err(Halt::Stop);
+    /// A stop reports `stopped` and exits 4; no start (or no command) in time exits 5 without a report.
+    pub(super) fn halt_with(&mut self, halt: Halt) -> Option<Phase> {
+        match halt {
+            Halt::Stop => {
+                self.report(Status::Stopped);
+                self.out.push(Action::Exit(EXIT_STOPPED));
             }
-            let shared = Arc::clone(&self.shared);
-            let msg = {
-                let mut inbox = shared.inbox.lock().unwrap_or_else(|e| e.into_inner());
-                if inbox.queue.is_empty() {
-                    inbox = shared
-                        .bell
-                        .wait_timeout(inbox, Duration::from_millis(250))
-                        .unwrap_or_else(|e| e.into_inner())
-                        .0;
-                    inbox.rung = false;
-                }
-                inbox.queue.pop_front()
-            };
-            match msg {
-                None => {
-                    if Instant::now() > deadline {
-                        return Err(Halt::Stop);
-                    }
-                }
-                Some(Msg::State(data, on_key)) => {
-                    if let Ok(rec) = wire::decode_state(&data) {
-                        if rec.id != self.spec.id && on_key {
-                            self.step = rec.step.saturating_add(1);
-                            self.started = true;
-                            self.buffer.clear();
-                            return Ok(());
-                        }
-                    }
-                }
-                Some(other) => self.handle(other)?,
-            }
+            Halt::NoStart => self.out.push(Action::Exit(EXIT_NO_START)),
         }
+        self.phase = Phase::Ended;
+        None
     }
 }

@@ -1,14 +1,16 @@
-//! The step loops: lockstep (paced by the launcher's clock, waiting for the expected set) and async (its own
-//! rate, the neighbours heard within max_age); both advance the particle with `sph::step_particle`.
+//! The steps: lockstep (paced by the launcher's clock, waiting for the expected set) and async (its own rate,
+//! the neighbours heard within max_age); both advance the particle with `sph::step_particle`, put the state
+//! and follow it with the cells they hear.
 
-use std::time::{Duration, Instant};
-
-use super::{Agent, Halt, CLOCK_LEAD};
+use super::{Action, AgentCore, Lock, Phase, Wake, CLOCK_LEAD, PACE_SLICE};
 use crate::event::EventKind;
+use crate::final_report::Status;
+use crate::keys;
 use crate::sph::{self, State, X, Y};
+use crate::wire;
 
-impl Agent {
-    fn advance(&mut self, neighbours: &[State]) {
+impl AgentCore {
+    fn advance(&mut self, neighbours: &[State], now: f64) {
         let control = match self.controller.as_mut() {
             Some(c) => c.control(&self.state),
             None => self.spec.control,
@@ -16,52 +18,63 @@ impl Agent {
         self.counters.neighbours += sph::interacting(&self.state, neighbours, &self.params).count() as u64;
         self.state = sph::step_particle(&self.state, neighbours, &control, &self.params, &self.spec.robot);
         self.step += 1;
-        self.last_step_done = Instant::now();
-        if let Err(e) = self.update_subscriptions() {
-            eprintln!("fluidswarm agent {}: subscription failed: {e}", self.spec.id);
+        self.last_step_done = now;
+        self.update_cells();
+    }
+
+    /// Lockstep: the states of the step waited for (sorted by id, as the reference driver), the next state.
+    pub(super) fn finish_step(&mut self, now: f64) {
+        let rows: Vec<State> = self.buffer.remove(&self.step).map(|c| c.into_values().collect()).unwrap_or_default();
+        // Drop what is older than the current step (late duplicates would pile up otherwise).
+        let step = self.step;
+        self.buffer.retain(|&s, _| s > step);
+        self.advance(&rows, now);
+    }
+
+    fn paced(&self) -> bool {
+        self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD)
+    }
+
+    pub(super) fn lockstep(&mut self, now: f64, lock: Lock) -> Option<Phase> {
+        match lock {
+            Lock::Top => {
+                if self.step >= self.last_step() {
+                    return self.finish(now, Status::Done);
+                }
+                if self.behind {
+                    self.rejoin(now); // resumed after a freeze: adopt the swarm's step (lifecycle.rs)
+                    return Some(Phase::Lockstep(Lock::Top));
+                }
+                // An isolated particle must not run ahead of the swarm (the launcher's clock).
+                if self.paced() {
+                    return Some(Phase::Lockstep(Lock::Paced));
+                }
+                Some(self.publish_and_wait(now))
+            }
+            Lock::Paced => {
+                if self.paced() && !self.behind {
+                    self.phase = Phase::Lockstep(Lock::Paced);
+                    self.sleep(now + PACE_SLICE, Wake { on_clock: true, ..Wake::default() });
+                    return None;
+                }
+                if self.behind {
+                    return Some(Phase::Lockstep(Lock::Top));
+                }
+                Some(self.publish_and_wait(now))
+            }
+            Lock::Waiting(w) => self.wait(now, w),
         }
     }
 
-    pub(super) fn run_lockstep(&mut self) -> Result<(), Halt> {
-        let mut rows: Vec<State> = Vec::with_capacity(32);
-        while self.step < self.last_step() {
-            if self.behind {
-                self.rejoin()?; // resumed after a freeze: adopt the swarm's step (lifecycle.rs)
-                continue;
-            }
-            // An isolated particle must not run ahead of the swarm (the launcher's clock).
-            if self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) {
-                self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = true;
-                while self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD) && !self.behind {
-                    self.drain(0.05)?;
-                }
-                self.shared.inbox.lock().unwrap_or_else(|e| e.into_inner()).wake_on_clock = false;
-                if self.behind {
-                    continue;
-                }
-            }
-            self.publish();
-            let expected = self.expected();
-            self.wait_for(&expected)?;
-            self.drain(0.0)?;
-            if self.behind {
-                continue;
-            }
-            rows.clear();
-            if let Some(current) = self.buffer.remove(&self.step) {
-                rows.extend(current.into_values()); // BTreeMap: sorted by id, as the reference driver
-            }
-            // Drop what is older than the current step (late duplicates would pile up otherwise).
-            let step = self.step;
-            self.buffer.retain(|&s, _| s > step);
-            self.advance(&rows);
-        }
-        Ok(())
+    fn publish_and_wait(&mut self, now: f64) -> Phase {
+        self.publish();
+        let expected = self.expected(now);
+        Phase::Lockstep(Lock::Waiting(self.begin_wait(now, expected)))
     }
 
     /// Async mode: the latest state of every neighbour heard within max_age; older ones are forgotten.
-    fn fresh_neighbours(&mut self, now: Instant) -> Vec<State> {
-        let max_age = Duration::from_secs_f64(self.spec.max_age);
+    fn fresh_neighbours(&mut self, now: f64) -> Vec<State> {
+        let max_age = self.spec.max_age;
         let support2 = self.params.support() * self.params.support();
         let mut rows = Vec::new();
         let mut expired = Vec::new();
@@ -69,7 +82,7 @@ impl Agent {
         ids.sort_unstable();
         for j in ids {
             let (t, values) = self.fresh[&j];
-            if now.saturating_duration_since(t) <= max_age {
+            if (now - t).max(0.0) <= max_age {
                 rows.push(values);
                 continue;
             }
@@ -88,28 +101,53 @@ impl Agent {
         rows
     }
 
-    pub(super) fn run_async(&mut self) -> Result<(), Halt> {
-        let period = Duration::from_secs_f64(1.0 / self.spec.rate);
-        let max_age = Duration::from_secs_f64(self.spec.max_age);
-        let mut due = Instant::now();
-        while self.step < self.last_step() {
-            self.publish();
-            self.drain(0.0)?;
-            let now = Instant::now();
-            let rows = self.fresh_neighbours(now);
-            self.advance(&rows);
-            due += period;
-            if now.saturating_duration_since(due) > max_age {
-                due = now; // after a freeze: carry on at the rate instead of racing through missed steps
-            }
-            loop {
-                let left = due.saturating_duration_since(Instant::now());
-                if left.is_zero() {
-                    break;
-                }
-                self.drain(left.as_secs_f64())?;
+    /// Async mode: a step when it is due, then a sleep until the next is.
+    pub(super) fn async_step(&mut self, now: f64, mut due: f64) -> Option<Phase> {
+        if now < due {
+            self.phase = Phase::Async { due };
+            self.sleep(due, Wake::default());
+            return None;
+        }
+        if self.step >= self.last_step() {
+            return self.finish(now, Status::Done);
+        }
+        self.publish();
+        let rows = self.fresh_neighbours(now);
+        self.advance(&rows, now);
+        due += 1.0 / self.spec.rate;
+        if now - due > self.spec.max_age {
+            due = now; // after a freeze: carry on at the rate instead of racing through missed steps
+        }
+        Some(Phase::Async { due })
+    }
+
+    pub(super) fn publish(&mut self) {
+        if self.spec.drop_out > 0.0 && self.random() < self.spec.drop_out {
+            self.counters.dropped_out += 1;
+            return;
+        }
+        let class = self.controller.as_ref().map_or(0, |c| c.particle_class());
+        let record = wire::encode_state(self.spec.id, self.step, &self.state, class);
+        let cell = keys::cell_of(self.state[X], self.state[Y], self.cell);
+        self.out.push(Action::Publish { cell, record });
+    }
+
+    /// The cells heard (docs/protocol.md, "Key expressions"): every cell within R_sub subscribed, those beyond
+    /// R_keep dropped (hysteresis). After every step, before the next state goes out.
+    pub(super) fn update_cells(&mut self) {
+        let (x, y) = (self.state[X], self.state[Y]);
+        let (keep, cell) = (self.r_keep, self.cell);
+        // covering_cells' own test, without building the set on every step
+        let gone: Vec<(i64, i64)> =
+            self.cells.iter().filter(|c| keys::cell_distance2(x, y, **c, cell) > keep * keep).copied().collect();
+        for c in gone {
+            self.cells.remove(&c);
+            self.out.push(Action::Unsubscribe(c));
+        }
+        for c in keys::covering_cells(x, y, self.r_sub, self.cell) {
+            if self.cells.insert(c) {
+                self.out.push(Action::Subscribe(c));
             }
         }
-        Ok(())
     }
 }
