@@ -77,7 +77,9 @@ def pca_randomized(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.nd
     x = np.asarray(x, np.float64)
     psi = x.mean(axis=0)
     k = min(k, *x.shape)
-    _u, s, vt = randomized_svd(x - psi, k, random_state=0)
+    # 2 power iterations, not scikit-learn's 7: 0.9 s less on the whole set; 5-fold cross-validation on the
+    # documented split's training part alike (ten classes 0.979 vs 0.980, classes 0,1,2,4,5 0.998 both)
+    _u, s, vt = randomized_svd(x - psi, k, n_iter=2, random_state=0)
     return psi, vt.T, s**2 / len(x)
 
 
