@@ -77,7 +77,7 @@ def _eval(args) -> int:
         for method in ("eigen", "best"):
             clf = EigenClassifier(method)
             t0, c0 = time.perf_counter(), time.process_time()
-            ftr = clf.features(tr)
+            ftr = clf.training_features(tr)  # best: with the turned copies of each training hand
             t_feat, c_feat = time.perf_counter() - t0, time.process_time() - c0
             t0 = time.perf_counter()
             fte = clf.features(te)

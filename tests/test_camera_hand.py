@@ -14,7 +14,7 @@ import pytest
 
 from coordinator.camera import EventLog, HandObserver, choose_subject
 from fluidswarm.recording.reader import check
-from perception.eigen import default_model
+from perception.eigen import HAND_SPACE_LIMIT, default_model
 from perception.hand import NoHandError, find_hand
 from perception.io import load_frames, load_image
 from perception.segmentation import hand_mask
@@ -47,7 +47,7 @@ def write_video(path: Path, pictures: list[np.ndarray], seconds: float = 6.0, fp
 def test_a_shared_photo_is_a_hand_with_its_class(shared_hands, clf):
     for cls in (1, 5):
         hand = find_hand(photo(shared_hands, cls), clf)
-        assert hand.label == str(cls) and hand.mask.any() and hand.distance <= 0.45
+        assert hand.label == str(cls) and hand.mask.any() and hand.distance <= HAND_SPACE_LIMIT
 
 
 def test_what_is_no_hand_says_what_was_not_found(shared_hands, clf):

