@@ -4,10 +4,13 @@
 
 use pyo3::prelude::*;
 
+mod command;
+mod json;
 mod wire;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     wire::register(m)?;
+    command::register(m)?;
     Ok(())
 }
