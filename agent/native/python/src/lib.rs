@@ -5,12 +5,18 @@
 use pyo3::prelude::*;
 
 mod command;
+mod ctl;
 mod json;
+mod keys;
+mod route;
 mod wire;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     wire::register(m)?;
     command::register(m)?;
+    ctl::register(m)?;
+    keys::register(m)?;
+    route::register(m)?;
     Ok(())
 }
