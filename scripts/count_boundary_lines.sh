@@ -1,0 +1,9 @@
+#!/bin/sh
+# issue 34: `scripts/count_boundary_lines.sh [tree]`; for a commit: `git worktree add /tmp/t COMMIT` and count /tmp/t
+# Lines of Python + Rust under agent/ and coordinator/control/, outside tests: no target/, no fuzz/, and a Rust
+# file's lines from its `#[cfg(test)]` on are tests (this crate's layout: the test module last).
+cd "${1:-.}"
+py=$(find agent coordinator/control -name '*.py' -not -path '*/target/*' -not -path '*/fuzz/*' | xargs cat | wc -l)
+rs_all=$(find agent coordinator/control -name '*.rs' -not -path '*/target/*' -not -path '*/fuzz/*' | xargs cat | wc -l)
+rs=$(for f in $(find agent coordinator/control -name '*.rs' -not -path '*/target/*' -not -path '*/fuzz/*'); do awk '/^#\[cfg\(test\)\]/{exit} {print}' "$f"; done | wc -l)
+echo "python $py  rust $rs (with inline tests $rs_all)  total $((py + rs))"
