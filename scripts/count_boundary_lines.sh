@@ -1,5 +1,5 @@
 #!/bin/sh
-# issue 34: `scripts/count_boundary_lines.sh [tree]`; for a commit: `git worktree add /tmp/t COMMIT` and count /tmp/t
+# issue 34: `sh scripts/count_boundary_lines.sh [tree]`; for a commit: `git archive COMMIT | tar -x -C DIR`, then count DIR
 # Lines of Python + Rust under agent/ and coordinator/control/, outside tests: no target/, no fuzz/, and a Rust
 # file's lines from its `#[cfg(test)]` on are tests (this crate's layout: the test module last).
 cd "${1:-.}"
