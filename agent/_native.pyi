@@ -103,3 +103,14 @@ class FillFollower:
         mu: float,
     ) -> None: ...
     def control(self, x: float, y: float) -> _Control: ...
+
+# --- the agents' events (agent/protocol/events.py) ---
+EVENTS_VERSION: int
+EVENTS_MAX_BYTES: int
+EVENTS_MAX_AGENT: int
+EVENTS_MAX_STEP: int
+EVENTS_MAX_LISTED: int
+EVENTS_MAX_SECONDS: float
+
+def events_decode(data: bytes) -> dict[str, Any] | None: ...
+def events_encode(obj: object) -> bytes: ...

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 
 mod command;
 mod ctl;
+mod events;
 mod json;
 mod keys;
 mod route;
@@ -16,6 +17,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     wire::register(m)?;
     command::register(m)?;
     ctl::register(m)?;
+    events::register(m)?;
     keys::register(m)?;
     route::register(m)?;
     Ok(())
