@@ -10,12 +10,14 @@ NATIVE := agent/native
 AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
 ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
+# The extension module agent._native (agent/records.py): pip's editable install builds it in place
+EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
 .PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt scenarios
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
-$(STAMP): pyproject.toml setup.py constraints.txt
+$(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
@@ -84,8 +86,8 @@ lint: $(STAMP)
 	$(BIN)/ruff check . || fail=1; \
 	$(BIN)/ruff format --check . || fail=1; \
 	$(BIN)/mypy || fail=1; \
-	$(CARGO) fmt --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
-	$(CARGO) clippy --release --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml -- -D warnings || fail=1; \
+	$(CARGO) fmt --all --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
+	$(CARGO) clippy --release --workspace --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml -- -D warnings || fail=1; \
 	test $$fail -eq 0
 
 # The mechanical fixers: ruff's safe fixes (never --unsafe-fixes), then both formatters.
@@ -93,7 +95,7 @@ fmt: $(STAMP)
 	@$(CLIPPY_FMT)
 	$(BIN)/ruff check --fix --quiet . || true
 	$(BIN)/ruff format .
-	$(CARGO) fmt --manifest-path $(NATIVE)/Cargo.toml
+	$(CARGO) fmt --all --manifest-path $(NATIVE)/Cargo.toml
 
 bench: install
 	$(BIN)/fluidswarm bench

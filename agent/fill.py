@@ -8,62 +8,39 @@ point of the shape's boundary, a stiff wall. Pressure does the rest: the swarm i
 compressed (the transform gives each particle less area than the Tait rest density asks for), so the fluid
 spreads until the walls hold it, the way a liquid fills a vessel.
 
-Pure arithmetic in a fixed order: agent/native/src/fill.rs repeats it operation for operation, so the
-native swarm equals the reference drivers to rounding (tests/vectors/fill.json checks both).
+One implementation, the agent crate's fill.rs (through agent._native): the agents and the reference drivers
+run the same arithmetic (tests/vectors/fill.json pins it).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
+
+from agent.records import native
 
 Ring = Sequence[tuple[float, float]]
 
 
+def _rings(rings: Sequence[Ring]) -> list[list[tuple[float, float]]]:
+    return [[(float(x), float(y)) for x, y in ring] for ring in rings]
+
+
 def inside(rings: Sequence[Ring], x: float, y: float) -> bool:
     """Even-odd rule over every edge of every ring (a ring inside another ring is a hole)."""
-    odd = False
-    for ring in rings:
-        n = len(ring)
-        for k in range(n):
-            x1, y1 = ring[k]
-            x2, y2 = ring[(k + 1) % n]
-            if (y1 > y) != (y2 > y):
-                xc = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-                if x < xc:
-                    odd = not odd
-    return odd
+    return native.fill_inside(_rings(rings), float(x), float(y))
 
 
 def nearest_point(rings: Sequence[Ring], x: float, y: float) -> tuple[float, float]:
     """The point of the rings' edges nearest to (x, y); the first one found on a tie."""
-    best = math.inf
-    bx, by = x, y
-    for ring in rings:
-        n = len(ring)
-        for k in range(n):
-            x1, y1 = ring[k]
-            x2, y2 = ring[(k + 1) % n]
-            ex, ey = x2 - x1, y2 - y1
-            ll = ex * ex + ey * ey
-            t = 0.0
-            if ll > 0.0:
-                t = ((x - x1) * ex + (y - y1) * ey) / ll
-                t = min(1.0, max(0.0, t))
-            px, py = x1 + t * ex, y1 + t * ey
-            d2 = (x - px) * (x - px) + (y - py) * (y - py)
-            if d2 < best:
-                best, bx, by = d2, px, py
-    return bx, by
+    return native.fill_nearest_point(_rings(rings), float(x), float(y))
+
+
+def zone_tuples(zones) -> list[tuple[float, float, float, float, float, float, float, float]]:
+    """Zones (agent/protocol/command.py `Zone`) as agent._native takes them."""
+    return [(z.x, z.y, z.ux, z.uy, z.a, z.b, z.beta, z.mu) for z in zones]
 
 
 def zone_material(zones, x: float, y: float, beta: float, mu: float) -> tuple[float, float]:
     """(beta, mu) of the first zone (an ellipse, agent/protocol/command.py `Zone`) that holds (x, y); the
     given ones where none does."""
-    for z in zones:
-        dx, dy = x - z.x, y - z.y
-        p = (dx * z.ux + dy * z.uy) / z.a
-        q = (dy * z.ux - dx * z.uy) / z.b
-        if p * p + q * q <= 1.0:
-            return z.beta, z.mu
-    return beta, mu
+    return native.fill_zone_material(zone_tuples(zones), float(x), float(y), float(beta), float(mu))

@@ -66,7 +66,7 @@ class StateRelay:
         data = sample.payload.to_bytes()
         peek, reason = peek_id_position(data)
         if peek is None:
-            self._reject(reason)
+            self._reject(str(reason))  # a reason whenever peek is None
             return
         if peek[0] != agent_id:
             self._reject(REJECT_ID)

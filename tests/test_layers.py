@@ -15,6 +15,8 @@ PACKAGES = ("agent", "coordinator", "perception", "fluidswarm")
 # Lowest first. A module belongs to the layer of its longest matching name prefix (a package or a module);
 # a module may import from its own layer and the layers below.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
+    # the compiled boundary records (agent/native/python, known by its stub agent/_native.pyi) and their import
+    ("compiled", ("agent._native", "agent.records")),
     ("physics", ("agent.sph", "agent.fill")),
     ("protocol", ("agent.protocol",)),
     ("perception", ("perception",)),
@@ -59,8 +61,9 @@ def layer_of(module: str) -> int:
 def modules() -> dict[str, Path]:
     found = {}
     for package in PACKAGES:
-        for path in sorted((REPO / package).rglob("*.py")):
-            if "native" in path.relative_to(REPO).parts:
+        # a compiled module is known by its stub (agent/_native.pyi); a stub beside a .py is the .py's
+        for path in sorted(p for p in (REPO / package).rglob("*.py*") if p.suffix in (".py", ".pyi")):
+            if "native" in path.relative_to(REPO).parts or path.with_suffix(".py") in found.values():
                 continue
             name = ".".join(path.relative_to(REPO).with_suffix("").parts)
             found[name.removesuffix(".__init__")] = path

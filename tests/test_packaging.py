@@ -18,7 +18,9 @@ from fluidswarm.cli import main
 from fluidswarm.scenario import PACKAGED_SCENARIOS, load_scenario, scenarios_dir
 
 REPO = Path(__file__).resolve().parents[1]
-SETUPTOOLS = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())
+SETUPTOOLS = PYPROJECT["tool"]["setuptools"]
+EXTENSIONS = [e["target"] for e in PYPROJECT["tool"]["setuptools-rust"]["ext-modules"]]  # built by cargo
 ROOTS = ("agent", "coordinator", "perception", "fluidswarm")
 
 
@@ -37,6 +39,10 @@ def shipped() -> set[Path]:
         out |= set(where.glob("*.py"))
         for pattern in data.get("*", []) + data.get(package, []):
             out |= {p for p in where.glob(pattern) if p.is_file()}
+    for target in EXTENSIONS:  # setuptools-rust puts the compiled module in its package (agent/_native*.so)
+        package, _, name = target.rpartition(".")
+        assert package in SETUPTOOLS["packages"]
+        out |= set(package_dir(package).glob(f"{name}.*.so"))
     return out
 
 

@@ -160,3 +160,4 @@ def test_files_are_current():
     assert same(gen.follower_sequences(payloads), SEQUENCES["sequences"])
     assert same(gen.route_vectors(), ROUTE)
     assert same(gen.fill_vectors(), FILL)
+    assert same(gen.sph_step_vectors(), load("sph_steps.json"))

@@ -1,5 +1,5 @@
-"""The launcher's control messages to the agents (`ctl/<what>`, docs/protocol.md "Control messages"): typed,
-versioned, encoded and decoded only here (the native agent's copy is agent/native/src/ctl.rs).
+"""The launcher's control messages to the agents (`ctl/<what>`, docs/protocol.md "Control messages"): typed here,
+versioned, encoded and decoded by the agent crate's ctl.rs (agent/native/src/ctl.rs, through agent._native).
 
 Payload: version (u8, 1), kind (u8: start 1, stop 2, clock 3, end 4, gone 5), then the kind's body,
 little-endian: clock and end a step (u64), gone an agent id (u32), start and stop nothing. The kind is said
@@ -9,19 +9,15 @@ Only the launcher may put these keys (docs/security.md), but a receiver still ch
 
 from __future__ import annotations
 
-import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
 from agent.protocol import keys
+from agent.records import native
 
-VERSION = 1
-MAX_STEP = 2**32 - 1  # steps are u32 in the state record (agent/protocol/wire.py)
-MAX_AGENT = 2**31 - 1  # agent ids, as in the spec and the report
-
-_HEAD = struct.Struct("<BB")
-_STEP = struct.Struct("<Q")
-_ID = struct.Struct("<I")
+VERSION = native.CTL_VERSION
+MAX_STEP = native.CTL_MAX_STEP  # steps are u32 in the state record (agent/protocol/wire.py)
+MAX_AGENT = native.CTL_MAX_AGENT  # agent ids, as in the spec and the report
 
 
 class CtlKind(IntEnum):
@@ -79,18 +75,10 @@ def kind_of(msg: Ctl) -> CtlKind:
 
 
 def encode_ctl(msg: Ctl) -> bytes:
-    """The payload of `msg`; it goes on `keys.ctl_key(run, kind_of(msg).what)`."""
-    kind = kind_of(msg)
-    head = _HEAD.pack(VERSION, kind)
-    if isinstance(msg, (Clock, End)):
-        if not 0 <= msg.step <= MAX_STEP:
-            raise ValueError(f"ctl/{kind.what}: step must be in [0, {MAX_STEP}], got {msg.step}")
-        return head + _STEP.pack(msg.step)
-    if isinstance(msg, Gone):
-        if not 0 <= msg.agent <= MAX_AGENT:
-            raise ValueError(f"ctl/gone: agent must be in [0, {MAX_AGENT}], got {msg.agent}")
-        return head + _ID.pack(msg.agent)
-    return head
+    """The payload of `msg`; it goes on `keys.ctl_key(run, kind_of(msg).what)`. ValueError for a step or an
+    agent out of range."""
+    value = msg.step if isinstance(msg, (Clock, End)) else msg.agent if isinstance(msg, Gone) else 0
+    return native.ctl_encode(kind_of(msg).what, value)
 
 
 def ctl_message(run: str, msg: Ctl) -> tuple[str, bytes]:
@@ -102,25 +90,12 @@ def ctl_message(run: str, msg: Ctl) -> tuple[str, bytes]:
 def decode_ctl(what: str | None, data: bytes) -> Ctl | None:
     """The message of payload `data` received on `ctl/<what>`, or None if anything in it is malformed
     (another version, a kind that is not the key's, a wrong length, a value out of range)."""
-    if len(data) < _HEAD.size:
+    decoded = native.ctl_decode(what, bytes(data))
+    if decoded is None:
         return None
-    version, code = _HEAD.unpack_from(data)
-    if version != VERSION or code not in CtlKind._value2member_map_:
-        return None
-    kind = CtlKind(code)
-    body = data[_HEAD.size :]
-    if kind.what != what:
-        return None
-    if kind in (CtlKind.START, CtlKind.STOP):
-        return (Start() if kind is CtlKind.START else Stop()) if not body else None
-    if kind is CtlKind.GONE:
-        if len(body) != _ID.size:
-            return None
-        (agent,) = _ID.unpack(body)
-        return Gone(agent) if agent <= MAX_AGENT else None
-    if len(body) != _STEP.size:
-        return None
-    (step,) = _STEP.unpack(body)
-    if step > MAX_STEP:
-        return None
-    return Clock(step) if kind is CtlKind.CLOCK else End(step)
+    name, value = decoded
+    if value is None:
+        return Start() if name == "start" else Stop()
+    if name == "gone":
+        return Gone(value)
+    return Clock(value) if name == "clock" else End(value)

@@ -1,5 +1,5 @@
 """What an agent tells the launcher and the recorder as it runs (`event/<id>`, docs/protocol.md "Events"):
-typed, versioned, encoded and decoded only here (the native agent's encoder is agent/native/src/event.rs).
+typed here, versioned, encoded and decoded by the agent crate's event.rs (through agent._native).
 
 JSON: {"v": 1, "id": <agent>, "step": <its step>, "event": <kind>, ...the kind's fields}. The fields are
 fixed per kind and checked (types, ranges, finiteness, sizes); an unknown kind or field, another version or
@@ -8,18 +8,17 @@ anything else malformed makes `decode_event` return None, and the receiver drops
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from enum import Enum
 
-from agent.protocol.json_fields import integer, number
+from agent.records import native
 
-VERSION = 1
-MAX_BYTES = 64 * 1024
-MAX_AGENT = 2**31 - 1
-MAX_STEP = 2**32 - 1
-MAX_LISTED = 4096  # neighbours in one timeout event: far more than fit in a kernel support
-MAX_SECONDS = 1e9
+VERSION = native.EVENTS_VERSION
+MAX_BYTES = native.EVENTS_MAX_BYTES
+MAX_AGENT = native.EVENTS_MAX_AGENT
+MAX_STEP = native.EVENTS_MAX_STEP
+MAX_LISTED = native.EVENTS_MAX_LISTED  # neighbours in one timeout event: far more than fit in a kernel support
+MAX_SECONDS = native.EVENTS_MAX_SECONDS
 
 
 class EventKind(str, Enum):
@@ -70,57 +69,23 @@ class AgentEvent:
         return out
 
 
-_FIELDS = {
-    EventKind.STARTED: set(),
-    EventKind.FELL_BEHIND: set(),
-    EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
-    EventKind.NEIGHBOUR_TIMEOUT: {"neighbours", "last_seen"},
-    EventKind.REJOINED: {"from_step"},
-}
-_REQUIRED = {
-    EventKind.COMMAND_RECEIVED: {"seconds_since_session_open"},
-    EventKind.NEIGHBOUR_TIMEOUT: {"neighbours"},
-    EventKind.REJOINED: {"from_step"},
-}
-
-
 def encode_event(event: AgentEvent) -> bytes:
-    return json.dumps(event.as_json(), separators=(",", ":"), allow_nan=False).encode()
-
-
-def _sighting(v) -> Sighting:
-    if not isinstance(v, list) or len(v) != 4 or not isinstance(v[3], bool):
-        raise ValueError
-    distance = None if v[2] is None else number(v[2], 0.0, MAX_SECONDS)
-    return Sighting(integer(v[0], 0, MAX_AGENT), integer(v[1], -1, MAX_STEP), distance, v[3])
-
-
-def _listed(v, item) -> tuple:
-    if not isinstance(v, list) or len(v) > MAX_LISTED:
-        raise ValueError
-    return tuple(item(x) for x in v)
+    """The record's bytes (event.rs encode, after the receiver's checks: ValueError if it would be refused)."""
+    return native.events_encode(event.as_json())
 
 
 def decode_event(data: bytes) -> AgentEvent | None:
-    """The event in `data`, or None if anything in it is malformed."""
-    if len(data) > MAX_BYTES:
+    """The event in `data`, or None if anything in it is malformed (event.rs decode)."""
+    msg = native.events_decode(bytes(data))
+    if msg is None:
         return None
-    try:
-        msg = json.loads(data)
-        if not isinstance(msg, dict) or type(msg.get("v")) is not int or msg["v"] != VERSION:
-            return None
-        kind = EventKind(msg["event"])
-        if set(msg) - {"v", "id", "step", "event"} - _FIELDS[kind] or not _REQUIRED.get(kind, set()) <= set(msg):
-            return None
-        kw: dict = {"id": integer(msg["id"], 0, MAX_AGENT), "step": integer(msg["step"], 0, MAX_STEP), "kind": kind}
-        if "neighbours" in msg:
-            kw["neighbours"] = _listed(msg["neighbours"], lambda j: integer(j, 0, MAX_AGENT))
-        if "last_seen" in msg:
-            kw["last_seen"] = _listed(msg["last_seen"], _sighting)
-        if "from_step" in msg:
-            kw["from_step"] = integer(msg["from_step"], 0, MAX_STEP)
-        if "seconds_since_session_open" in msg:
-            kw["seconds_since_session_open"] = number(msg["seconds_since_session_open"], 0.0, MAX_SECONDS)
-    except (ValueError, KeyError, TypeError, RecursionError):
-        return None
-    return AgentEvent(**kw)
+    last_seen = msg.get("last_seen")
+    return AgentEvent(
+        msg["id"],
+        msg["step"],
+        EventKind(msg["event"]),
+        tuple(msg.get("neighbours", ())),
+        None if last_seen is None else tuple(Sighting(*s) for s in last_seen),
+        msg.get("seconds_since_session_open"),
+        msg.get("from_step"),
+    )

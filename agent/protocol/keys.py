@@ -1,4 +1,5 @@
-"""Zenoh key expressions of a run: defined once here, documented in docs/protocol.md (protocol v1).
+"""Zenoh key expressions of a run (protocol v1, docs/protocol.md): the agent crate's keys.rs (through
+agent._native) writes and reads the ids and the keys both sides use; the observers' expressions are here.
 
     fluidswarm/<run>/state/<cx>/<cy>        a state of an agent in cell (cx, cy) (the record names the agent)
     fluidswarm/<run>/state/<id>             under per-process rights (acl): agent id puts its states here, the
@@ -18,63 +19,44 @@ so per-process rights need no default-deny pass over every forwarded message (do
 
 from __future__ import annotations
 
-import math
 import re
 
-PREFIX = "fluidswarm"
-_RUN_RE = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+from agent.records import native
+
+PREFIX = native.KEYS_PREFIX
 _INT_RE = re.compile(r"^-?(0|[1-9][0-9]{0,9})$")
-_CTL_RE = re.compile(r"^[a-z]{1,16}$")
-ID_BITS = 13
-MAX_AGENTS = 1 << ID_BITS  # ids 0 .. 8191 have a key
+ID_BITS = native.KEYS_ID_BITS
+MAX_AGENTS = native.KEYS_MAX_AGENTS  # ids 0 .. 8191 have a key
 
 
 def bit_letter(k: int, bit: int) -> str:
-    """The letter that writes bit `bit` (0 or 1) at position `k` of an id chunk."""
+    """The letter that writes bit `bit` (0 or 1) at position `k` of an id chunk (access control's patterns)."""
     return chr(ord("a") + 2 * k + bit)
 
 
 def id_chunk(agent_id: int) -> str:
-    """The key chunk of an agent id (see the module's docstring)."""
-    i = int(agent_id)
-    if not 0 <= i < MAX_AGENTS:
-        raise ValueError(f"agent id {i}: ids 0..{MAX_AGENTS - 1} only (keys write the id in {ID_BITS} bits)")
-    return "".join(bit_letter(k, (i >> k) & 1) for k in range(ID_BITS))
+    """The key chunk of an agent id (see the module's docstring); ValueError outside 0..MAX_AGENTS - 1."""
+    return native.keys_id_chunk(int(agent_id))
 
 
-def id_of_chunk(chunk: str) -> int | None:
-    """The id an id chunk writes, or None for anything else (a wildcard, a partial or foreign chunk)."""
-    if len(chunk) != ID_BITS:
-        return None
-    i = 0
-    for k, ch in enumerate(chunk):
-        bit = ord(ch) - ord("a") - 2 * k
-        if bit not in (0, 1):
-            return None
-        i |= bit << k
-    return i
+# The id an id chunk writes, or None for anything else (a wildcard, a partial or foreign chunk).
+id_of_chunk = native.keys_id_of_chunk
 
+# Run names become one key chunk: letters, digits, '-' and '_' only (no '/', '*', '$'), 1 to 64 of them.
+valid_run_name = native.keys_valid_run_name
 
-def valid_run_name(run: str) -> bool:
-    """Run names become one key chunk: letters, digits, '-' and '_' only (no '/', '*', '$')."""
-    return bool(_RUN_RE.match(run))
+# The cell (floor(x / cell), floor(y / cell)) of a position.
+cell_of = native.keys_cell_of
 
-
-def cell_of(x: float, y: float, cell: float) -> tuple[int, int]:
-    return math.floor(x / cell), math.floor(y / cell)
-
-
-def cell_key(run: str, cx: int, cy: int) -> str:
-    """The states of the agents in cell (cx, cy), the id only in the record: what agents hear on, one exact key
-    per cell, the cheapest for zenoh. Put by the agents without per-process rights, else by the relay
-    (docs/protocol.md)."""
-    return f"{PREFIX}/{run}/state/{cx}/{cy}"
+# The states of the agents in cell (cx, cy), the id only in the record: what agents hear on, one exact key per
+# cell, the cheapest for zenoh. Put by the agents without per-process rights, else by the relay (docs/protocol.md).
+cell_key = native.keys_cell_key
 
 
 def state_key(run: str, agent_id: int) -> str:
     """Agent `agent_id`'s states under per-process rights (level acl): one exact key carrying its id, so the
     router's access control lets each agent publish only its own states (docs/security.md)."""
-    return f"{PREFIX}/{run}/state/{id_chunk(agent_id)}"
+    return native.keys_state_key(run, int(agent_id))
 
 
 def state_sender(key: str) -> int | None:
@@ -103,7 +85,7 @@ def state_observed_expr(run: str, id_keys: bool) -> str:
 
 
 def alive_key(run: str, agent_id: int) -> str:
-    return f"{PREFIX}/{run}/alive/{id_chunk(agent_id)}"
+    return native.keys_alive_key(run, int(agent_id))
 
 
 def alive_expr(run: str) -> str:
@@ -114,12 +96,11 @@ def ctl_key(run: str, what: str) -> str:
     return f"{PREFIX}/{run}/ctl/{what}"
 
 
-def ctl_expr(run: str) -> str:
-    return f"{PREFIX}/{run}/ctl/*"
+ctl_expr = native.keys_ctl_expr
 
 
 def final_key(run: str, agent_id: int) -> str:
-    return f"{PREFIX}/{run}/final/{id_chunk(agent_id)}"
+    return native.keys_final_key(run, int(agent_id))
 
 
 def final_expr(run: str) -> str:
@@ -127,25 +108,18 @@ def final_expr(run: str) -> str:
 
 
 def event_key(run: str, agent_id: int) -> str:
-    return f"{PREFIX}/{run}/event/{id_chunk(agent_id)}"
+    return native.keys_event_key(run, int(agent_id))
 
 
 def event_expr(run: str) -> str:
     return f"{PREFIX}/{run}/event/*"
 
 
-def command_key(run: str) -> str:
-    return f"{PREFIX}/{run}/command"
+command_key = native.keys_command_key
 
+# `start`, `stop`, ... for exactly `fluidswarm/<run>/ctl/<what>`, else None (a wildcard key such as
+# `fluidswarm/**` reaches a ctl subscriber too; only the launcher may put the exact keys).
+ctl_what = native.keys_ctl_what
 
-def ctl_what(run: str, key: str) -> str | None:
-    """`start`, `stop`, ... for exactly `fluidswarm/<run>/ctl/<what>`, else None (a wildcard key such as
-    `fluidswarm/**` reaches a ctl subscriber too; only the launcher may put the exact keys)."""
-    head = f"{PREFIX}/{run}/ctl/"
-    what = key[len(head) :] if key.startswith(head) else ""
-    return what if _CTL_RE.match(what) else None
-
-
-def id_from_key(key: str) -> int | None:
-    """The agent id the last chunk of a key writes (id_chunk), or None."""
-    return id_of_chunk(key.rsplit("/", 1)[-1])
+# The agent id the last chunk of a key writes (id_chunk), or None.
+id_from_key = native.keys_id_from_key

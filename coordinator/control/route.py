@@ -1,92 +1,71 @@
 """How an agent follows a gesture command, decided locally from its id (pure, deterministic).
 
-The same `RouteFollower` and `class_of` run inside every agent process and in the reference drivers, so
-a swarm that follows a command can be checked against the centralised solver.
+The same `RouteFollower`, `FillFollower` and `class_of` run inside every agent process and in the reference
+drivers: the agent crate's route.rs, through agent._native (typed wrappers here), so a swarm that follows a
+command can be checked against the centralised solver.
 """
 
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
 
-from agent.fill import inside, nearest_point, zone_material
+from agent.fill import zone_tuples
 from agent.protocol.command import CommandRejected, decode
+from agent.records import native
 from agent.sph.particle import Control, X, Y
 
 
 def class_counts(n: int, shares) -> list[int]:
     """Largest-remainder split of n particles over the class shares (deterministic)."""
-    total = float(sum(shares))
-    exact = [n * s / total for s in shares]
-    counts = [math.floor(e) for e in exact]
-    rest = n - sum(counts)
-    order = sorted(range(len(shares)), key=lambda k: (-(exact[k] - counts[k]), k))
-    for k in order[:rest]:
-        counts[k] += 1
-    return counts
+    return native.route_class_counts(int(n), [float(s) for s in shares])
 
 
 def class_of(agent_id: int, n: int, shares) -> int:
     """The class of particle `agent_id` (ids 0..n-1 in order fill class 0, then 1, ...); ids >= n (late
     joiners) are spread over the classes round-robin."""
-    counts = class_counts(n, shares)
-    if agent_id >= n:
-        nonzero = [k for k, c in enumerate(counts) if c > 0]
-        return nonzero[agent_id % len(nonzero)]
-    edge = 0
-    for k, c in enumerate(counts):
-        edge += c
-        if agent_id < edge:
-            return k
-    return len(counts) - 1
+    return native.route_class_of(int(agent_id), int(n), [float(s) for s in shares])
 
 
 class RouteFollower:
     """Waypoint after waypoint: advance when within r of the current one (the last one is kept); switch
-    beta/mu when a waypoint that names them is reached."""
+    beta/mu when a waypoint that names them is reached (route.rs RouteFollower)."""
 
     def __init__(self, route, beta: float, mu: float, push=(0.0, 0.0)):
         self.route = list(route)
-        self.index = 0
-        self.beta, self.mu = beta, mu
-        self.push = push
+        waypoints = [(w.x, w.y, w.r, w.s, w.alpha, w.beta, w.mu) for w in self.route]
+        self._native = native.RouteFollower(waypoints, float(beta), float(mu), (float(push[0]), float(push[1])))
+
+    @property
+    def index(self) -> int:
+        return self._native.index
+
+    @property
+    def beta(self) -> float:
+        return self._native.beta
+
+    @property
+    def mu(self) -> float:
+        return self._native.mu
 
     def control(self, state: np.ndarray, step: int) -> Control:
-        while True:
-            w = self.route[self.index]
-            reached = (state[X] - w.x) ** 2 + (state[Y] - w.y) ** 2 <= w.r * w.r
-            if not reached:
-                break
-            if w.beta is not None:
-                self.beta = w.beta
-            if w.mu is not None:
-                self.mu = w.mu
-            if self.index + 1 >= len(self.route):
-                break
-            self.index += 1
-        w = self.route[self.index]
-        return Control(w.x, w.y, w.r, w.s, w.alpha, self.beta, self.mu, *self.push)
+        return Control(*self._native.control(float(state[X]), float(state[Y])))
 
 
 class FillFollower:
     """The fill law (agent/fill.py): no body force inside the shape, eq. 6.2 towards the nearest boundary
     point outside it (r = 0, so the pull fades to nothing on the boundary); the stiffness and viscosity of
-    the zone the particle is in (`zone_material`), else the command's."""
+    the zone the particle is in, else the command's (route.rs FillFollower)."""
+
+    index = 0  # no waypoints: reported as waypoint 0
 
     def __init__(self, fill, beta: float, mu: float):
-        self.rings, self.alpha, self.s, self.zones = fill.rings, fill.alpha, fill.s, fill.zones
-        self.beta, self.mu = beta, mu
-        self.index = 0  # no waypoints: reported as waypoint 0
+        rings = [[(float(x), float(y)) for x, y in ring] for ring in fill.rings]
+        self._native = native.FillFollower(rings, fill.alpha, fill.s, zone_tuples(fill.zones), float(beta), float(mu))
 
     def control(self, state: np.ndarray, step: int) -> Control:
-        x, y = state[X], state[Y]
-        beta, mu = zone_material(self.zones, x, y, self.beta, self.mu)
-        if inside(self.rings, x, y):
-            return Control(x, y, 0.0, self.s, 0.0, beta, mu)
-        px, py = nearest_point(self.rings, x, y)
-        return Control(px, py, 0.0, self.s, self.alpha, beta, mu)
+        return Control(*self._native.control(float(state[X]), float(state[Y])))
 
 
 def follower(command, particle_class: int):

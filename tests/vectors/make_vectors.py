@@ -13,6 +13,8 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
                             agent.protocol.command.edges_cross
     ctl.json                agent.protocol.ctl.decode_ctl: the launcher's ctl/<what> payloads, decoded or dropped
     events.json             agent.protocol.events.decode_event: agent events, decoded or dropped
+    sph_steps.json          agent.sph.particle.step_particle (numpy, the physics oracle): one particle's step,
+                            neighbours in, next state out (agent/native/tests/sph_vectors.rs checks sph.rs)
 
 One module per file in tests/vectors/make/ (the name of the file it makes), this script writes them all.
 
@@ -36,6 +38,7 @@ from make.ctl import ctl_vectors
 from make.events import event_vectors
 from make.fill import fill_vectors
 from make.route import route_vectors
+from make.sph_steps import sph_step_vectors
 from make.state_records import state_vectors
 
 __all__ = [
@@ -45,6 +48,7 @@ __all__ = [
     "fill_vectors",
     "follower_sequences",
     "route_vectors",
+    "sph_step_vectors",
     "state_vectors",
 ]
 
@@ -58,6 +62,7 @@ def main() -> None:
     write("route.json", route_vectors())
     write("fill.json", fill_vectors())
     write("ctl.json", ctl_vectors())
+    write("sph_steps.json", sph_step_vectors())
     write("events.json", event_vectors())
 
 

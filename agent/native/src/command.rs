@@ -2,7 +2,7 @@
 //! agent/protocol/command.py, with the same accept/reject decisions and reasons.
 //!
 //! The envelope is exactly `{"v":1,"body":` BODY `,"sig":"` HMAC-SHA256(secret, BODY) in hex `"}`, as the one
-//! encoder (Python's `GestureCommand.encode`) writes it. The signature covers the body's bytes as sent, so it
+//! encoder (`sign`, called by Python's `GestureCommand.encode`) writes it. The signature covers the body's bytes as sent, so it
 //! is checked before any JSON is read (a forgery costs one HMAC), and the body is then read by serde_json:
 //! no parser here has to reproduce the encoder's.
 //!
@@ -93,11 +93,32 @@ fn shallow(v: &Value, depth: usize) -> bool {
 
 /// Verify and parse an envelope from the network: Err("malformed" | "version" | "signature").
 pub fn decode(data: &[u8], secret: &[u8]) -> Result<GestureCommand, &'static str> {
-    let body: Value = serde_json::from_slice(verify(data, secret)?).map_err(|_| MALFORMED)?;
-    if !shallow(&body, 1) {
+    parse_value(&read_body(verify(data, secret)?)?)
+}
+
+/// A verified body's JSON (serde_json, RFC 8259 in UTF-8: no NaN, no number beyond binary64, no lone
+/// surrogate), at most MAX_DEPTH deep; Err("malformed").
+pub fn read_body(body: &[u8]) -> Result<Value, &'static str> {
+    let value: Value = serde_json::from_slice(body).map_err(|_| MALFORMED)?;
+    if !shallow(&value, 1) {
         return Err(MALFORMED);
     }
-    parse_body(&body)
+    Ok(value)
+}
+
+/// The typed command of a body's JSON, however it was read (an envelope, or the coordinator's commands file
+/// through the Python side): at most MAX_DEPTH deep, then `parse_body`.
+pub fn parse_value(body: &Value) -> Result<GestureCommand, &'static str> {
+    if !shallow(body, 1) {
+        return Err(MALFORMED);
+    }
+    parse_body(body)
+}
+
+/// The envelope of a body, the one writer (the coordinator's, through agent/protocol/command.py):
+/// `{"v":1,"body":` BODY `,"sig":"` HMAC-SHA256(secret, BODY) in hex `"}`.
+pub fn sign(body: &[u8], secret: &[u8]) -> Vec<u8> {
+    [V1, body, SIG_KEY, &hmac_hex(secret, body), TAIL_END].concat()
 }
 
 #[cfg(test)]
@@ -107,8 +128,7 @@ mod tests {
     const SECRET: &[u8] = b"0123456789abcdef";
 
     fn sign(body: &str) -> Vec<u8> {
-        let sig = hmac_hex(SECRET, body.as_bytes());
-        [V1, body.as_bytes(), SIG_KEY, &sig, TAIL_END].concat()
+        super::sign(body.as_bytes(), SECRET)
     }
 
     const BODY: &str = r#"{"beta":2.0,"classes":[{"name":"a","route":[{"alpha":1.0,"mu":0.5,"r":1.0,"s":2.0,"x":3.0,"y":4.0}],"share":1.0}],"extra":{},"gesture":"v","mu":0.0,"n_agents":10,"seq":1}"#;

@@ -90,3 +90,18 @@ fn an_unknown_distance_is_null() {
     let ev = Event { id: 2, step: 3, kind: EventKind::NeighbourTimeout { neighbours: vec![1], last_seen: Some(seen) } };
     assert_eq!(ev.to_json()["last_seen"], json!([[1, -1, null, false]]));
 }
+
+#[test]
+fn events_decode_as_the_vectors_say() {
+    let cases = load("events.json");
+    let cases = cases.as_array().unwrap();
+    assert!(cases.iter().filter(|c| c["expect"].is_null()).count() >= 20);
+    for case in cases {
+        let got = fluidswarm_agent::event::decode(&unhex(case["payload_hex"].as_str().unwrap()));
+        let want = &case["expect"];
+        match got {
+            None => assert!(want.is_null(), "{}: dropped, the vector decodes it", case["name"]),
+            Some(ev) => assert_eq!(&ev.to_json(), want, "{}", case["name"]),
+        }
+    }
+}

@@ -8,7 +8,7 @@ import hmac
 import json
 from pathlib import Path
 
-from agent.protocol.command import GestureCommand, ParticleClass, Waypoint, _canonical
+from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from agent.sph.particle import Control
 
 HERE = Path(__file__).resolve().parent.parent
@@ -20,6 +20,13 @@ PHOTO = HERE.parent.parent / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"
 SECRET = bytes(range(32))
 OTHER_SECRET = bytes(range(1, 33))
 HEAD = b'{"v":1,"body":'
+
+
+def canonical(body: dict) -> bytes:
+    """The body bytes most vectors sign: Python json's sorted compact form (the encoder's before issue 34, so
+    the committed payloads keep their bytes). Signed, any writer's bytes are a command; these can also hold
+    what the one encoder (GestureCommand.encode, serde_json) refuses to write, such as integers beyond 64 bits."""
+    return json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
 
 
 def framed(body: bytes, sig: bytes, head: bytes = HEAD) -> bytes:
@@ -37,7 +44,7 @@ def sign_raw(body: bytes, secret: bytes = SECRET) -> bytes:
 
 
 def sign(body: dict, secret: bytes = SECRET) -> bytes:
-    return sign_raw(_canonical(body), secret)
+    return sign_raw(canonical(body), secret)
 
 
 def reserialised(body: dict, **dumps) -> bytes:
@@ -49,7 +56,7 @@ def relaid(body: dict, v=1, sig: str | None = None) -> bytes:
     """The envelope as a JSON object laid out otherwise (keys reversed, indented), signed over the canonical
     body: what a v1 receiver once accepted, now no envelope (the signature must cover the bytes sent)."""
     env = {
-        "sig": sig_raw(_canonical(body)).decode() if sig is None else sig,
+        "sig": sig_raw(canonical(body)).decode() if sig is None else sig,
         "body": dict(reversed(list(body.items()))),
         "v": v,
     }

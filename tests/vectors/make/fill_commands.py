@@ -3,9 +3,9 @@ fill field is refused."""
 
 from __future__ import annotations
 
-from agent.protocol.command import MAX_RINGS, MAX_VERTICES, _canonical
+from agent.protocol.command import MAX_RINGS, MAX_VERTICES
 
-from .common import SECRET, body, one_class, relaid, reserialised, sign, sign_raw
+from .common import SECRET, body, canonical, one_class, relaid, reserialised, sign, sign_raw
 from .shapes import ZONE, fill, photo_command, polygon, raw_fill, square
 
 
@@ -64,7 +64,7 @@ def fill_command_cases() -> list:
         ("fill_zone_b_negative", sign(body(fill=fill(zones=[dict(ZONE, b=-1.0)])))),
         ("fill_zone_beta_beyond_1e4", sign(body(fill=fill(zones=[dict(ZONE, beta=10001.0)])))),
         ("fill_zone_mu_bool", sign(body(fill=fill(zones=[dict(ZONE, mu=True)])))),
-        ("fill_zone_x_nan", sign_raw(_canonical(body(fill=fill(zones=[dict(ZONE, x="@@")]))).replace(b'"@@"', b"NaN"))),
+        ("fill_zone_x_nan", sign_raw(canonical(body(fill=fill(zones=[dict(ZONE, x="@@")]))).replace(b'"@@"', b"NaN"))),
         ("fill_crossing_rings", sign(body(fill=fill(rings=[square(0.0, 0.0, 2.0), square(1.0, 1.0, 2.0)])))),
         ("fill_bow_tie", sign(body(fill=fill(rings=[[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]])))),
         (
