@@ -1,10 +1,10 @@
 """One lockstep swarm of N native agents (`run_swarm(spread_block(N), STEPS)`), its figures on one line.
 
 Used for the side-by-side Zenoh settings in docs/benchmarks/native.md, e.g.
-    FLUIDSWARM_EXPRESS=1 .venv/bin/python scripts/probe_swarm.py 100 300
     .venv/bin/python scripts/probe_swarm.py 100 300
-Knobs (environment): FLUIDSWARM_EXPRESS=1, FLUIDSWARM_CONGESTION=drop, FLUIDSWARM_AGENT_RUNTIME=default|one|two|rx1,
-FLUIDSWARM_AGENT_LINK=unix|tcp, FLUIDSWARM_ACCESS=none|auth|acl (at acl the compiled router's CPU is printed too).
+Knobs (environment): FLUIDSWARM_AGENT_LINK=unix|tcp, FLUIDSWARM_ACCESS=none|auth|acl (at acl the compiled
+router's CPU is printed too). The agent's own knobs (express, congestion control, runtime layout) are gone since
+issue 35: their measured defaults are fixed.
 """
 
 import os

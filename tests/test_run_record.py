@@ -15,7 +15,7 @@ from fluidswarm.imitate_commands import print_lines
 from fluidswarm.run import RunRecord
 from fluidswarm.scenario_commands import print_summary
 
-# the fields the native agent sends (agent/native/src/agent/report.rs), a follower's included
+# the fields the native agent sends (agent/native/src/final_report.rs), a follower's included
 NATIVE = {
     "v": 1,
     "id": 7,

@@ -335,7 +335,7 @@ def test_users_file_errors_are_one_line_naming_the_line(tmp_path):
 
 def test_a_state_is_taken_only_from_its_senders_key_or_an_exact_cell_key():
     # the recorder and the launcher's pacer take a state record only on a key that vouches for it (the Rust
-    # agent takes states only on the exact cell keys it subscribed to: cell_bus.rs)
+    # agent takes states only on the exact cell keys it subscribed to: agent/step.rs update_cells, shell.rs subscribe)
     run = "r"
     assert keys.state_key(run, 7) == "fluidswarm/r/state/bdfgikmoqsuwy"
     assert keys.state_key_vouches(keys.state_key(run, 7), 7) and keys.state_key_vouches(keys.cell_key(run, -1, 2), 7)

@@ -1,9 +1,10 @@
 """PCA controller (thesis ch. 4-5): the recognised class -> that class' parameter template.
 
-The eigen-image classifier (`perception.eigen.default_model`, PCA + LDA) recognises the hand's class; a
-person clip's pose is recognised from the arm regions (`coordinator.control.observe.body_label`). Each class maps
-to one of the thesis' preshapes or body poses, a fixed template of particle classes and routes written in
-a normalised frame and placed on the observed hand/body:
+The hand classifier (`perception.eigen.default_model`: the `best` method, HOG + PCA + RBF SVM; the thesis'
+eigen-images are `--method eigen`) recognises the hand's class; a person clip's pose is recognised from the arm
+regions (`coordinator.control.observe.body_label`). Each class maps to one of the thesis' preshapes or body
+poses, a fixed template of particle classes and routes written in a normalised frame and placed on the observed
+hand/body:
 
 - hand frame: origin the palm centre, unit the palm's inscribed radius R, "up" pointing away from the
   wrist (towards the finger tips);
