@@ -10,14 +10,15 @@ NATIVE := agent/native
 AGENT_BIN := $(NATIVE)/target/release/fluidswarm-agent
 ROUTER_BIN := $(NATIVE)/target/release/fluidswarm-router
 AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/*.rs $(NATIVE)/src/*/*.rs)
-# The extension module agent._native (agent/records.py): pip's editable install builds it in place
+# The extension module agent._native (agent/records.py): pip's editable install builds it in place. It wraps
+# the agent crate's records (wire.rs, command.rs, ...), so a change there rebuilds it too ($(STAMP) below).
 EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
 .PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt scenarios
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
-$(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC)
+$(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC) $(AGENT_SRC)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'

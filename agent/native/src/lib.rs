@@ -21,3 +21,14 @@ pub mod shell;
 pub mod spec;
 pub mod sph;
 pub mod wire;
+
+/// Any panic ends the process at once (after the default message): a panicking zenoh callback thread would
+/// otherwise leave the agent or router alive and silent, holding its neighbours until their timeouts. Called
+/// first thing by both programs; the release profile unwinds so that tests can share its build (Cargo.toml).
+pub fn abort_on_panic() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        report(info);
+        std::process::abort();
+    }));
+}

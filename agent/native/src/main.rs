@@ -69,6 +69,7 @@ fn choose_runtime() {
 }
 
 fn main() {
+    fluidswarm_agent::abort_on_panic();
     choose_runtime();
     install_signals();
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -27,6 +27,7 @@ fn fail(msg: &str) -> ! {
 }
 
 fn main() {
+    fluidswarm_agent::abort_on_panic();
     // Ctrl-C reaches the whole process group; the launcher still needs its router to tell its agents to stop,
     // and closes the router (our stdin) after them. The end of stdin is also how the launcher's death ends us
     // (the pipe closes with it, however it dies), so no death signal tied to the spawning thread is needed.

@@ -85,7 +85,7 @@ impl AgentCore {
         let present = |j: &u32| have.is_some_and(|h| h.contains_key(j));
         // A neighbour heard at a later step has moved on: its state of this step was lost (one publisher's
         // messages arrive in order), so waiting for it would only cost the timeout.
-        let missing: HashSet<u32> = w
+        let mut missing: HashSet<u32> = w
             .expected
             .iter()
             .copied()
@@ -108,7 +108,6 @@ impl AgentCore {
             self.publish();
             w.resend_at = now + w.resend_every;
         }
-        let mut missing = missing;
         if now >= w.deadline {
             // Silent: not heard since the wait began, or not for the timeout (it froze while we waited).
             let (began, silence) = (w.began, self.spec.timeout);
