@@ -114,3 +114,10 @@ EVENTS_MAX_SECONDS: float
 
 def events_decode(data: bytes) -> dict[str, Any] | None: ...
 def events_encode(obj: object) -> bytes: ...
+
+REPORT_VERSION: int
+REPORT_MAX_BYTES: int
+REPORT_MAX_COUNT: int
+REPORT_MAX_ABS: float
+
+def report_decode(data: bytes) -> dict[str, Any] | None: ...
