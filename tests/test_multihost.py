@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import subprocess
 import sys
 import time
@@ -83,8 +84,28 @@ def make_certificates(folder, routers: dict[str, str]) -> dict[str, tuple[str, s
     return out
 
 
+@pytest.fixture(scope="session")
+def tls_files(tmp_path_factory) -> dict[str, str]:
+    """The CA and each router's certificate and key, made once: the routers' addresses are Hosts.LINKS's, the
+    same in every test (three RSA keys took ~1 s of every multi-host test's set-up)."""
+    folder = tmp_path_factory.mktemp("tls")
+    a, b = Hosts.LINKS[0][2], Hosts.LINKS[0][3]  # the a <-> b link: a's end, b's end
+    certs = make_certificates(folder, {"a": a, "b": b})
+    return {
+        "ca": str(folder / "ca.pem"),
+        **{f"{n}.{k}": v for n, kv in certs.items() for k, v in zip(("cert", "key"), kv)},
+    }
+
+
+def _router_ready(proc: subprocess.Popen, timeout: float = 30.0) -> None:
+    """Wait for the router's first line (`router=... zid=...`, printed once its session is open and listening)."""
+    ready, _, _ = select.select([proc.stdout], [], [], timeout)
+    line = proc.stdout.readline() if ready else ""
+    assert line.startswith("router="), f"a router did not start within {timeout:.0f} s: {line!r}"
+
+
 @pytest.fixture
-def hosts(tmp_path):
+def hosts(tmp_path, tls_files):
     try:
         h = Hosts()
     except NetnsUnavailable as exc:
@@ -93,11 +114,16 @@ def hosts(tmp_path):
     write_users_file(str(users), RunKey().users(40))  # agent-0..39, launcher, coordinator, recorder, router
     a, b = h.addr[("a", "b")], h.addr[("b", "a")]
     a_c = h.addr[("a", "c")]
-    certs = make_certificates(tmp_path, {"a": a, "b": b})
-    ca = str(tmp_path / "ca.pem")
-    tls = lambda name: ["--tls-ca", ca, "--tls-cert", certs[name][0], "--tls-key", certs[name][1]]
+    tls = lambda name: [
+        "--tls-ca",
+        tls_files["ca"],
+        "--tls-cert",
+        tls_files[f"{name}.cert"],
+        "--tls-key",
+        tls_files[f"{name}.key"],
+    ]
     auth = ["--auth-file", str(users)]
-    h.popen(
+    router_a = h.popen(
         "a",
         FS
         + ["router", "--listen", f"tcp/{a}:{PORT}", "--listen", f"tcp/{a_c}:{PORT}", "--listen", f"tls/{a}:{TLS_PORT}"]
@@ -106,14 +132,15 @@ def hosts(tmp_path):
         stdout=subprocess.PIPE,
         text=True,
     )
+    _router_ready(router_a)  # listening before B starts: B's first connection attempt finds it
     # B reaches A only over TLS: if the TLS link did not come up, the split swarm could not start
-    h.popen(
+    router_b = h.popen(
         "b",
         FS + ["router", "--listen", f"tcp/{b}:{PORT}", "--connect", f"tls/{a}:{TLS_PORT}"] + auth + tls("b"),
         stdout=subprocess.PIPE,
         text=True,
     )
-    time.sleep(2.0)
+    _router_ready(router_b)  # (was a fixed 2 s sleep for both)
     # each launcher hands its processes their lines: host A's launcher reads the file named by --auth-file,
     # host B's the one in FLUIDSWARM_AUTH_FILE (both ways a launcher gets it)
     h.auth = {"a": ["--auth-file", str(users)], "b": []}
