@@ -132,7 +132,6 @@ def hosts(tmp_path, tls_files):
         stdout=subprocess.PIPE,
         text=True,
     )
-    _router_ready(router_a)  # listening before B starts: B's first connection attempt finds it
     # B reaches A only over TLS: if the TLS link did not come up, the split swarm could not start
     router_b = h.popen(
         "b",
@@ -140,7 +139,10 @@ def hosts(tmp_path, tls_files):
         stdout=subprocess.PIPE,
         text=True,
     )
-    _router_ready(router_b)  # (was a fixed 2 s sleep for both)
+    # Both started at once, then waited for (was: a fixed 2 s sleep, which assumed both were up by then); B
+    # retries its connection to A until A listens.
+    _router_ready(router_a)
+    _router_ready(router_b)
     # each launcher hands its processes their lines: host A's launcher reads the file named by --auth-file,
     # host B's the one in FLUIDSWARM_AUTH_FILE (both ways a launcher gets it)
     h.auth = {"a": ["--auth-file", str(users)], "b": []}
