@@ -303,6 +303,7 @@ def run_swarm(
                 **spec_extra,
                 "neighbours": near[i],
                 "robot": setup.robot.as_dict(),
+                "radio": setup.radio.as_dict(),
                 **(per_agent or {}).get(i, {}),
             }
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
