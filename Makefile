@@ -24,7 +24,7 @@ $(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC) $(AGENT_SRC)
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
 	touch $(STAMP)
 
-# One cargo build makes both programs: the agent and the router of access level acl (agent/router_process.py)
+# One cargo build makes both programs: the agent and the router of access level acl (swarmhost/router_process.py)
 $(AGENT_BIN) $(ROUTER_BIN) &: $(AGENT_SRC)
 	$(CARGO) build --release --locked --manifest-path $(NATIVE)/Cargo.toml
 	touch $(AGENT_BIN) $(ROUTER_BIN)

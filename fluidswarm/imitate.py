@@ -20,7 +20,6 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
-from agent.supervisor import die_with_parent
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.imitation_setup import (
     DEFAULT_CONTROLLER,
@@ -34,6 +33,7 @@ from coordinator.process import commands_along, write_commands
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from swarmhost.supervisor import die_with_parent
 
 
 def perceive(input_path, agents: int, controller: str, frame: int | None, sequence: bool):

@@ -31,13 +31,13 @@ from typing import TYPE_CHECKING, Protocol, Self
 
 import numpy as np
 
-from agent.launcher import Launcher, SwarmResult, run_swarm
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
-from agent.supervisor import stop_process
-from fluidswarm.failures import FailureInjector
 from fluidswarm.recording.progress import Progress
+from swarmhost.failures import FailureInjector
+from swarmhost.launcher import Launcher, SwarmResult, run_swarm
+from swarmhost.supervisor import stop_process
 
 if TYPE_CHECKING:
     from agent.sph.particle import Control
@@ -102,7 +102,7 @@ class RunOptions:
     run: str | None = None
     connect: str | None = None
     auth_file: str = ""
-    realtime: bool = False  # simulated time held to the wall clock (agent/pacing.py pace_realtime)
+    realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
 
 
 @dataclass
@@ -260,7 +260,7 @@ class Run:
 
     def add_coordinator(self, proc: subprocess.Popen) -> None:
         """The run's coordinator process: stopped with the run, the target of a kill_coordinator failure;
-        watched (agent/helpers.py): one that dies on its own ends the run as a lost helper."""
+        watched (swarmhost/helpers.py): one that dies on its own ends the run as a lost helper."""
         self.coordinator = proc
         self.launcher.watch_coordinator(proc)
 

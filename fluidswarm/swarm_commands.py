@@ -74,7 +74,7 @@ def _add_auth_file_argument(p) -> None:
 def _agent(args) -> int:
     import os
 
-    from agent.executable import agent_executable
+    from swarmhost.executable import agent_executable
 
     program = agent_executable()
     os.execv(program, [program, "--spec", args.spec])  # the compiled agent replaces this process
@@ -109,8 +109,8 @@ def _check_counts(agents: int, steps: int) -> None:
 def _check_before_start(args) -> None:
     """What would fail once the router runs, found before it starts: a swarm beyond an embedded router's ids,
     a recording that cannot be written (one line each, nothing started)."""
-    from agent.launcher import check_swarm_size
-    from agent.recorder_process import check_writable
+    from swarmhost.launcher import check_swarm_size
+    from swarmhost.recorder_process import check_writable
 
     if not args.connect:
         check_swarm_size(args.agents)

@@ -1,6 +1,6 @@
 """CPU per state record decoded, before and after the state record moved to the compiled module (issue 34):
 the recorder's `decode_state` (fluidswarm/recording/steps.py) and the launcher's `peek_id_step`
-(agent/pacing.py; its settle rule also calls `decode_state`).
+(swarmhost/pacing.py; its settle rule also calls `decode_state`).
 
 "before" is the pure-Python wire.py of commit 56af093 (copied below, verbatim in what it computes); "after"
 is agent/protocol/wire.py, the typed wrapper of agent._native. The two run alternately, ROUNDS rounds of

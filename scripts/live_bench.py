@@ -23,8 +23,8 @@ from pathlib import Path
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from agent.router_host import free_port
 from fluidswarm.recording.reader import check
+from swarmhost.router_host import free_port
 
 SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 

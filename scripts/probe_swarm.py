@@ -13,8 +13,8 @@ import time
 
 import numpy as np
 
-from agent.launcher import Launcher, run_swarm
 from agent.sph.setups import spread_block
+from swarmhost.launcher import Launcher, run_swarm
 
 
 def cpu_seconds(pid: int) -> float:

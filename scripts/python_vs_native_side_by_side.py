@@ -8,7 +8,7 @@ import sys
 import time
 
 sys.path.insert(0, "/work/main")
-import agent.launcher as L
+import swarmhost.launcher as L
 from fluidswarm import bench
 
 out = []

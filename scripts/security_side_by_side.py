@@ -27,9 +27,9 @@ import time
 def one(n: int, steps: int) -> dict:
     import numpy as np
 
-    from agent.launcher import Launcher, run_swarm
     from agent.protocol.access import LaunchAccess
     from agent.sph.setups import spread_block
+    from swarmhost.launcher import Launcher, run_swarm
 
     if os.environ.get("FLUIDSWARM_SBS_NO_RULES"):  # acl-keys: the acl level's key layout, no rules on the router
         embedded = LaunchAccess.embedded

@@ -16,17 +16,17 @@ import numpy as np
 import pytest
 import zenoh
 
-from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
 from agent.protocol.access import level as access_level
 from agent.protocol.report import Status
 from agent.protocol.session import client_config
 from agent.protocol.spec import AgentSpec
 from agent.protocol.wire import encode_state
-from agent.router_host import free_port
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
+from swarmhost.launcher import Launcher, run_swarm
+from swarmhost.router_host import free_port
 from tests.swarm_helpers import children_of, is_running, wait_for_live_step
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
@@ -223,7 +223,7 @@ def test_no_process_survives_a_normal_run_or_sigint(tmp_path):
         assert first.startswith("run="), first
         wait_for_live_step(port, 20)
         kids = children_of(launch.pid)
-        # the agents and the recorder, and at level acl the compiled router (agent/router_process.py)
+        # the agents and the recorder, and at level acl the compiled router (swarmhost/router_process.py)
         assert len(kids) == 8 + 1 + (access_level() == "acl"), kids
         launch.send_signal(signal.SIGINT)
         code = launch.wait(30)
@@ -240,7 +240,7 @@ def test_no_process_survives_a_normal_run_or_sigint(tmp_path):
 
 
 def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
-    from agent.executable import agent_executable
+    from swarmhost.executable import agent_executable
 
     good = Launcher.__new__(Launcher)  # only spec_for's fields are needed
     good.run, good.agent_endpoint, good.agent_timeout, good.user, good.password = "r1", "tcp/127.0.0.1:9", 2.0, "", ""

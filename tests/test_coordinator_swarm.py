@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 import zenoh
 
-from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
 from agent.protocol.command import CommandRejected, decode
 from agent.protocol.session import client_config
@@ -26,6 +25,7 @@ from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from coordinator.control.imitation_setup import prepare
 from coordinator.control.route import class_counts, class_of, followers_for
+from swarmhost.launcher import Launcher, run_swarm
 from tests.swarm_helpers import PER_PARTICLE, field_names, wait_until
 
 REPO = Path(__file__).resolve().parent.parent

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import pytest
 
-from agent.helpers import HelperLost
-from agent.launcher import Launcher, run_swarm
 from agent.protocol.access import AGENT_CAPACITY
 from agent.protocol.events import EventKind
-from agent.router_host import free_port
 from agent.sph.setups import spread_block
 from fluidswarm.recording.reader import check, load_run
+from swarmhost.helpers import HelperLost
+from swarmhost.launcher import Launcher, run_swarm
+from swarmhost.router_host import free_port
 from tests.swarm_helpers import children_of, is_running, wait_for_live_step, wait_until
 
 V_SIGN = Path(__file__).resolve().parents[1] / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"

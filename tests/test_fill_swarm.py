@@ -18,7 +18,6 @@ import pytest
 import zenoh
 
 from agent.fill import inside, zone_material
-from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
 from agent.protocol.access import PASSWORD_ENV, USER_ENV
 from agent.protocol.command import Zone
@@ -27,6 +26,7 @@ from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
 from coordinator.control.imitation_setup import prepare_observation
 from coordinator.control.route import followers_for
+from swarmhost.launcher import Launcher, run_swarm
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 

@@ -1,4 +1,4 @@
-"""agent/helpers.py: a helper process of the run that ends is named in one line, with how and when; a planned
+"""swarmhost/helpers.py: a helper process of the run that ends is named in one line, with how and when; a planned
 end (a failure injected on purpose) and a finished job (exit 0, where allowed) are not losses."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from agent.helpers import HelperLost, Helpers, describe_exit
+from swarmhost.helpers import HelperLost, Helpers, describe_exit
 
 
 def started(*cmd: str) -> subprocess.Popen:

@@ -7,21 +7,22 @@ still a dependency; hiding it does not remove it). The picture behind LAYERS: do
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("agent", "coordinator", "perception", "fluidswarm")
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
 
 # Lowest first. A module belongs to the layer of its longest matching name prefix (a package or a module);
 # a module may import from its own layer and the layers below.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # the compiled boundary records (agent/native/python, known by its stub agent/_native.pyi) and their import
-    ("compiled", ("agent._native", "agent.records")),
+    ("compiled", ("agent", "agent._native", "agent.records")),
     ("physics", ("agent.sph", "agent.fill")),
     ("protocol", ("agent.protocol",)),
     ("perception", ("perception",)),
     ("control", ("coordinator.control",)),
-    ("processes", ("agent", "coordinator", "fluidswarm.router", "fluidswarm.failures", "fluidswarm.recording")),
+    ("processes", ("swarmhost", "coordinator", "fluidswarm.router", "fluidswarm.recording")),
     (
         "orchestration",
         (
@@ -155,3 +156,45 @@ def test_the_checker_sees_function_level_and_relative_imports(tmp_path):
     }
     assert imports("agent.a", pkg / "a.py", known) == [("coordinator.control.route", 2), ("agent.b", 3)]
     assert layer_of("coordinator.control.route") > layer_of("agent.protocol.wire") > layer_of("agent.sph.kernel")
+
+
+RUST_SRC = REPO / "agent" / "native" / "src"
+
+
+def rust_modules() -> dict[str, list[tuple[str, str]]]:
+    """Each top-level module of the agent crate (src/X.rs with its folder src/X/) → (module it names through
+    `crate::`, file:line). A `crate::` path anywhere counts, in a `use` or inline: both are dependencies."""
+    out: dict[str, list[tuple[str, str]]] = {}
+    for path in sorted(RUST_SRC.rglob("*.rs")):
+        rel = path.relative_to(RUST_SRC)
+        module = rel.parts[0].removesuffix(".rs")
+        if module in ("lib", "main", "router_main"):  # the crate roots: they declare the modules
+            continue
+        deps = out.setdefault(module, [])
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            code = line.split("//", 1)[0]
+            for m in re.finditer(r"\bcrate::([a-z_][a-z0-9_]*)", code):
+                if m.group(1) != module:
+                    deps.append((m.group(1), f"{rel}:{n}"))
+    return out
+
+
+def test_no_rust_module_cycle():
+    edges = rust_modules()
+    assert {"agent", "command", "fill", "sph", "wire"} <= set(edges)  # the walk found the crate
+    cycles: list[str] = []
+    state: dict[str, int] = {}
+
+    def visit(name: str, path: list[str]) -> None:
+        state[name] = 1
+        for target, where in edges.get(name, []):
+            if state.get(target) == 1:
+                cycles.append(" -> ".join(path[path.index(target) :] + [target]) + f" ({where})")
+            elif target not in state:
+                visit(target, path + [target])
+        state[name] = 2
+
+    for name in sorted(edges):
+        if name not in state:
+            visit(name, [name])
+    assert not cycles, "module cycles in agent/native/src:\n" + "\n".join(cycles)

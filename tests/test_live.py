@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from agent.router_host import free_port
 from fluidswarm.recording.reader import check, load_run
+from swarmhost.router_host import free_port
 from tests.foxglove_client import FoxgloveClient
 
 FLUIDSWARM = [sys.executable, "-m", "fluidswarm"]

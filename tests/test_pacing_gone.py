@@ -1,4 +1,4 @@
-"""The launcher's ctl/gone relay (agent/pacing.py): a lost agent is relayed to the swarm, a finished one is not —
+"""The launcher's ctl/gone relay (swarmhost/pacing.py): a lost agent is relayed to the swarm, a finished one is not —
 its token's deletion overtakes its final report, and a neighbour told it is gone could stop waiting for its
 last state still on the way (docs/protocol.md, "A neighbour's last states")."""
 
@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import time
 
-from agent import pacing
 from agent.protocol.ctl import Gone, decode_ctl
 from agent.protocol.report import FinalReport, Status
-from agent.supervisor import Swarm
+from swarmhost import pacing
+from swarmhost.supervisor import Swarm
 from tests.swarm_helpers import wait_until
 
 

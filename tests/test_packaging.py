@@ -13,15 +13,15 @@ from pathlib import Path
 
 import pytest
 
-from agent import executable
 from fluidswarm.cli import main
 from fluidswarm.scenario import PACKAGED_SCENARIOS, load_scenario, scenarios_dir
+from swarmhost import executable
 
 REPO = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())
 SETUPTOOLS = PYPROJECT["tool"]["setuptools"]
 EXTENSIONS = [e["target"] for e in PYPROJECT["tool"]["setuptools-rust"]["ext-modules"]]  # built by cargo
-ROOTS = ("agent", "coordinator", "perception", "fluidswarm")
+ROOTS = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
 
 
 def package_dir(package: str) -> Path:
@@ -145,14 +145,14 @@ def test_the_lookup_covers_pips_layouts():
     dirs = executable.installed_dirs()
     assert dirs[0] == Path(sysconfig.get_path("scripts"))  # a venv's bin/, where the wheel's scripts go
     assert len(dirs) == len(set(dirs))
-    prefix = Path("/opt/p")  # pip install --prefix /opt/p: /opt/p/lib/python3.X/site-packages/agent
+    prefix = Path("/opt/p")  # pip install --prefix /opt/p: /opt/p/lib/python3.X/site-packages/swarmhost
     assert (
         executable._parent_above(
-            prefix / "lib" / "python3.11" / "site-packages" / "agent", "lib/python*/site-packages/agent"
+            prefix / "lib" / "python3.11" / "site-packages" / "swarmhost", "lib/python*/site-packages/swarmhost"
         )
         == prefix
     )
-    assert executable._parent_above(Path("/opt/t/agent"), "lib/python*/site-packages/agent") is None
+    assert executable._parent_above(Path("/opt/t/swarmhost"), "lib/python*/site-packages/swarmhost") is None
 
 
 def test_a_missing_agent_program_is_one_line_and_exit_1(no_build, capsys):

@@ -11,10 +11,10 @@ import threading
 import pytest
 from mcap.reader import make_reader
 
-from agent.launcher import Launcher, run_swarm
-from agent.router_host import free_port
 from agent.sph.setups import spread_block
 from fluidswarm.recording.reader import check, load_run
+from swarmhost.launcher import Launcher, run_swarm
+from swarmhost.router_host import free_port
 from tests.swarm_helpers import wait_for_live_step
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)

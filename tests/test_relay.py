@@ -1,5 +1,5 @@
 """The state relays with real Zenoh sessions: a router with the relay on its own session — zenoh-python's with
-agent/relay.py (a launcher's relay), or the compiled router's (agent/router_process.py, the embedded router at
+swarmhost/relay.py (a launcher's relay), or the compiled router's (swarmhost/router_process.py, the embedded router at
 level acl) — and a client that puts on an agent's id key and listens on the cell keys, as agents do under
 per-process rights."""
 
@@ -15,10 +15,10 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.session import client_config, router_config, router_config_dict
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
-from agent.relay import StateRelay
-from agent.router_host import free_port
-from agent.router_process import RouterFailed, RouterProcess
 from agent.sph.particle import NFIELDS
+from swarmhost.relay import StateRelay
+from swarmhost.router_host import free_port
+from swarmhost.router_process import RouterFailed, RouterProcess
 from tests.swarm_helpers import wait_until
 
 RUN = "r"
@@ -98,7 +98,7 @@ def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_c
 
 
 def test_a_router_that_never_says_ready_is_killed_and_named(tmp_path, monkeypatch):
-    from agent import router_process
+    from swarmhost import router_process
 
     hung = tmp_path / "hung-router"  # stands in for a router stuck opening: it never reads its stdin
     hung.write_text("#!/bin/sh\nexec sleep 30\n")

@@ -27,14 +27,14 @@ import numpy as np
 import pytest
 import zenoh
 
-from agent.launcher import Launcher, run_swarm
 from agent.protocol import keys
 from agent.protocol.access import AGENT_CAPACITY, AuthFileError, RunKey, acl_config, read_users_file, write_users_file
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
-from agent.supervisor import stop_process
+from swarmhost.launcher import Launcher, run_swarm
+from swarmhost.supervisor import stop_process
 from tests.swarm_helpers import children_of
 
 FS = [sys.executable, "-m", "fluidswarm"]
@@ -423,7 +423,7 @@ RIGHTS = {
 def test_the_routers_rules_let_each_role_do_its_part_and_nothing_else(tmp_path):
     from agent.protocol.access import UsersFile
     from agent.protocol.session import router_config
-    from agent.router_host import free_port
+    from swarmhost.router_host import free_port
 
     key = RunKey()
     creds = key.users(8)

@@ -12,8 +12,8 @@ import time
 
 import pytest
 
-from agent.router_host import free_port
-from agent.supervisor import stop_process
+from swarmhost.router_host import free_port
+from swarmhost.supervisor import stop_process
 
 pytestmark = pytest.mark.swarm  # starts a router and the CLI (tests/conftest.py)
 

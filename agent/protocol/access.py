@@ -41,7 +41,7 @@ USER_ENV = "FLUIDSWARM_ZENOH_USER"
 PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
 # The embedded router's protection (docs/security.md): "acl" (default) fresh credentials per process and
 # per-process rights (each agent publishes only under its own id, on its id key; the embedded router is the
-# compiled one with the state relay, agent/router_process.py: ~5 % fewer steps/s than an open router on the mean,
+# compiled one with the state relay, swarmhost/router_process.py: ~5 % fewer steps/s than an open router on the mean,
 # docs/benchmarks/security.md); "auth" credentials only, so no outsider can open a session (the launcher's own
 # zenoh-python session is the router); "none" an open router as before issue 18 (measurements only).
 LEVEL_ENV = "FLUIDSWARM_ACCESS"
@@ -192,7 +192,7 @@ class LaunchAccess:
         self.capacity = capacity
         # Routers that enforce per-process rights (our embedded one at level acl; multi-host routers given a
         # users file) let an agent publish states only under its own id: agents put them on state/<id>, the
-        # relay puts them on the cell keys (agent/router_process.py, agent/relay.py).
+        # relay puts them on the cell keys (swarmhost/router_process.py, swarmhost/relay.py).
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod

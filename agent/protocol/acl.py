@@ -72,7 +72,7 @@ def acl_config(users: list[str]) -> dict:
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
         # launcher (a client of its router: at acl, and multi-host): ctl, and its relay's puts on cell keys
-        # (agent/relay.py; the compiled router's relay is the router itself), never an agent's id key
+        # (swarmhost/relay.py; the compiled router's relay is the router itself), never an agent's id key
         _deny(
             "launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]
         ),

@@ -49,7 +49,7 @@ def router_settings(
     tls: TlsFiles | None = None,
 ) -> dict[str, object]:
     """A router's settings (config path -> value), for zenoh-python's in-process router (router_config) and for
-    the compiled one (agent/router_process.py writes them as a JSON file: router_config_dict).
+    the compiled one (swarmhost/router_process.py writes them as a JSON file: router_config_dict).
 
     `dictionary_file`: usrpwd users (`user:password` lines), required of every session; `acl`: Zenoh's
     `access_control` section (agent/protocol/access.py: acl_config); `user`/`password`: this router's own

@@ -68,7 +68,7 @@ class AgentSpec:
     rate           steps/s an async agent aims for (its own clock); a late agent does not race to catch up
     max_age        s: in async mode a neighbour state older than this is not used (frozen, gone or far)
     neighbours     [[id, x, y], ...]: agents placed near this one; those in its watched cells are its step-0
-                   neighbours (agent/initial_neighbours.py)
+                   neighbours (swarmhost/initial_neighbours.py)
     robot          the particle's body and drive, RobotModel fields (agent/sph/robot.py; {}: a point)
     radio          what its radio and localisation make of the states it receives, RadioModel fields
                    (agent/sph/radio.py: loss, latency, noise, seed; {}: perfect; lockstep only)

@@ -1,5 +1,5 @@
 """How our long-running processes (router, recorder, coordinator) are told to stop: SIGTERM (what
-agent.supervisor.stop_process and the launcher send) or SIGINT (Ctrl-C) set a flag, nothing else.
+swarmhost.supervisor.stop_process and the launcher send) or SIGINT (Ctrl-C) set a flag, nothing else.
 
 A flag, not an exception: an exception raised from a handler lands wherever the main thread happens to be.
 In the recorder it once landed inside a step's write, after the step's states had been taken and before they

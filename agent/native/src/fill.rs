@@ -123,7 +123,7 @@ pub fn edges_cross(rings: &[Ring]) -> bool {
 }
 
 /// `zone_material`: (beta, mu) of the first zone (an ellipse) that holds (x, y); the given ones where none does.
-pub fn zone_material(zones: &[crate::command::Zone], x: f64, y: f64, beta: f64, mu: f64) -> (f64, f64) {
+pub fn zone_material(zones: &[Zone], x: f64, y: f64, beta: f64, mu: f64) -> (f64, f64) {
     for z in zones {
         let (dx, dy) = (x - z.x, y - z.y);
         let p = (dx * z.ux + dy * z.uy) / z.a;

@@ -1,5 +1,5 @@
 //! The state relay under per-process rights, on the router's own session (the `fluidswarm-router` program;
-//! the Python twin for a launcher that is a client of another host's router is agent/relay.py).
+//! the Python twin for a launcher that is a client of another host's router is swarmhost/relay.py).
 //!
 //! At access level `acl` an agent puts its state on its own id key, `state/<id>`, which the router's access
 //! control lets no other process use, and hears states on the cell keys, `state/<cx>/<cy>`, which no agent

@@ -1,5 +1,5 @@
 //! `fluidswarm-router RUN`: a run's embedded router at access level `acl`, the state relay on its own session
-//! (agent/router_process.py starts it; docs/protocol.md, docs/security.md).
+//! (swarmhost/router_process.py starts it; docs/protocol.md, docs/security.md).
 //!
 //! Its Zenoh configuration (listen endpoints, the users file, the access-control rules) is a JSON file named
 //! by FLUIDSWARM_ROUTER_CONFIG, written privately by the launcher: never on the command line. The launcher

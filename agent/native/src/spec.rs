@@ -1,4 +1,4 @@
-//! What one agent process is told at start (`--spec JSON`, written by agent/launcher.py from
+//! What one agent process is told at start (`--spec JSON`, written by swarmhost/launcher.py from
 //! agent/protocol/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
 //! The field checks are in spec/fields.rs.
 

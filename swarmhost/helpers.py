@@ -3,7 +3,7 @@
 A run cannot go on without them: without the router no state moves (the agents wait for each other until
 their timeouts, the launcher for their reports: a 2000-step run hung 200 s); without the recorder the run goes
 unrecorded while the command says it recorded; without the coordinator no command comes. `Helpers.check()`
-is called at every wake-up of the launcher's waits (agent/supervisor.py, at most 0.2 s apart) and raises
+is called at every wake-up of the launcher's waits (swarmhost/supervisor.py, at most 0.2 s apart) and raises
 `HelperLost` naming what was lost and when; the launcher then stops the swarm and keeps what was recorded.
 
 A helper may be marked as expected to go (`expect_loss`): a coordinator killed on purpose by the

@@ -3,7 +3,7 @@
 With an embedded router the local agents link to it over TCP loopback or a unix socket (AGENT_LINK), and
 the router gets the run's fresh credentials and per-process rights (agent/protocol/access.py,
 docs/security.md); as a client the launcher uses the credentials it was given. Under per-process rights (level
-acl, the default) the embedded router is the compiled one with the state relay (agent/router_process.py) and
+acl, the default) the embedded router is the compiled one with the state relay (swarmhost/router_process.py) and
 the launcher is its client; at auth and none it is the launcher's own zenoh-python session.
 """
 
@@ -19,8 +19,8 @@ import zenoh
 
 from agent.protocol.access import LaunchAccess
 from agent.protocol.session import client_config, router_config, router_config_dict
-from agent.relay import StateRelay
-from agent.router_process import CompiledRelay, RouterProcess
+from swarmhost.relay import StateRelay
+from swarmhost.router_process import CompiledRelay, RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
 AGENT_LINK = os.environ.get("FLUIDSWARM_AGENT_LINK", "tcp")
@@ -35,7 +35,7 @@ def free_port() -> int:
 class RouterHost:
     """`endpoint`: where other processes and hosts connect; `agent_endpoint`: where this host's agents
     connect; `access`: the credentials handed to each process; `session`: the launcher's own session;
-    `relay`: the state relay under per-process rights (agent/relay.py's interface), None without them."""
+    `relay`: the state relay under per-process rights (swarmhost/relay.py's interface), None without them."""
 
     def __init__(
         self,
@@ -66,7 +66,7 @@ class RouterHost:
         try:
             if not connect and self.access.state_key_ids:
                 # Per-process rights: every state passes the relay, which runs inside a compiled router
-                # (agent/router_process.py); the launcher is its client.
+                # (swarmhost/router_process.py); the launcher is its client.
                 self.process = RouterProcess(
                     run, router_config_dict(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
                 )

@@ -1,5 +1,5 @@
 """Where the compiled programs are: the agent, and the router that hosts the state relay at access level acl
-(agent/router_process.py). Both are built from agent/native by cargo.
+(swarmhost/router_process.py). Both are built from agent/native by cargo.
 
 Looked up in this order: $FLUIDSWARM_AGENT_BIN / $FLUIDSWARM_ROUTER_BIN; the source tree's cargo build
 (agent/native/target/release, what `make install` keeps fresh in a checkout or an editable install); where
@@ -19,7 +19,8 @@ from pathlib import Path
 from agent.protocol.errors import UserError
 
 PACKAGE_DIR = Path(__file__).resolve().parent
-NATIVE_DIR = PACKAGE_DIR / "native"
+# the agent crate of a source checkout (agent/native beside this package); absent in an installed package
+NATIVE_DIR = PACKAGE_DIR.parent / "agent" / "native"
 ENV_OVERRIDE = "FLUIDSWARM_AGENT_BIN"
 ROUTER_ENV_OVERRIDE = "FLUIDSWARM_ROUTER_BIN"
 AGENT = "fluidswarm-agent"
@@ -36,7 +37,7 @@ def _runnable(path: Path) -> bool:
 
 def _parent_above(path: Path, pattern: str) -> Path | None:
     """`path` with the trailing parts matching `pattern` (`/`-separated, `*` wildcards) cut off, else None:
-    the prefix of a `pip install --prefix` (…/lib/python3.X/site-packages/agent) or `--target` (…/agent)."""
+    the prefix of a `pip install --prefix` (…/lib/python3.X/site-packages/swarmhost) or `--target` (…/swarmhost)."""
     want = pattern.split("/")
     parts = path.parts
     if len(parts) <= len(want) or not all(fnmatch.fnmatch(p, w) for p, w in zip(reversed(parts), reversed(want))):
@@ -52,8 +53,8 @@ def installed_dirs() -> list[Path]:
         sysconfig.get_path("scripts", scheme=sysconfig.get_preferred_scheme("user")),  # pip install --user
     ]
     prefixes = [
-        _parent_above(PACKAGE_DIR, "lib/python*/site-packages/agent"),  # pip install --prefix P: P/bin
-        _parent_above(PACKAGE_DIR, "agent"),  # pip install --target T: T/bin
+        _parent_above(PACKAGE_DIR, "lib/python*/site-packages/swarmhost"),  # pip install --prefix P: P/bin
+        _parent_above(PACKAGE_DIR, "swarmhost"),  # pip install --target T: T/bin
     ]
     out: list[Path] = []
     for d in [Path(s) for s in scripts] + [p / "bin" for p in prefixes if p is not None]:

@@ -21,12 +21,12 @@ from dataclasses import dataclass, field
 
 import zenoh
 
-from agent.executable import agent_executable
 from agent.protocol import keys
 from agent.protocol.ctl import Start, Stop, ctl_message
 from agent.protocol.events import AgentEvent, decode_event
 from agent.protocol.report import FinalReport, decode_report
 from agent.protocol.spec import AgentSpec
+from swarmhost.executable import agent_executable
 
 _PR_SET_PDEATHSIG = 1
 # s an exited agent's final report is still awaited, if its exit code says it sent one
@@ -75,7 +75,7 @@ class Supervisor:
     ):
         self.swarm, self.env_for_agent, self.secret, self.quiet = swarm, env_for_agent, secret, quiet
         # called at every wake-up of the waits below (<= 0.2 s apart): raises when a helper of the run (router,
-        # recorder, coordinator) is lost, so no wait outlives it (agent/launcher.py: Launcher.check_helpers)
+        # recorder, coordinator) is lost, so no wait outlives it (swarmhost/launcher.py: Launcher.check_helpers)
         self.health = health
         self.program = agent_executable()  # the compiled agent (agent/native); fail before any process starts
         session, run = swarm.session, swarm.run

@@ -28,7 +28,7 @@ AHEAD = 1000  # steps: a state further ahead of the newest step seen is not beli
 
 
 class Pacer:
-    """`swarm` (agent/supervisor.py Swarm): its alive agents and lost ones; `agent_timeout` [s]: an agent
+    """`swarm` (swarmhost/supervisor.py Swarm): its alive agents and lost ones; `agent_timeout` [s]: an agent
     silent this long (frozen) does not hold the clock back."""
 
     def __init__(self, swarm, agent_timeout: float, id_keys: bool, clock_period: float = CLOCK_PERIOD):

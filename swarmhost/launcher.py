@@ -3,13 +3,13 @@
 Used through fluidswarm/run.py by `fluidswarm launch`, `verify`, `imitate`, `run` and the benchmarks. The
 `Launcher` of one run puts together parts with one job each:
 
-    agent/router_host.py       the run's Zenoh session: an embedded router (at level acl the compiled one,
-                               agent/router_process.py, with the state relay), or a client of one elsewhere
-    agent/relay.py             the state relay of a launcher that is a client (multi-host, per-process rights)
-    agent/supervisor.py        the agent processes: start, alive tokens, final reports, stop
-    agent/pacing.py            the run's progress (steps seen) and its pacing clock, ctl/end and ctl/gone
-    agent/recorder_process.py  the MCAP recorder process
-    agent/helpers.py           the router, recorder and coordinator, watched: a lost one ends the run (HelperLost)
+    swarmhost/router_host.py       the run's Zenoh session: an embedded router (at level acl the compiled one,
+                               swarmhost/router_process.py, with the state relay), or a client of one elsewhere
+    swarmhost/relay.py             the state relay of a launcher that is a client (multi-host, per-process rights)
+    swarmhost/supervisor.py        the agent processes: start, alive tokens, final reports, stop
+    swarmhost/pacing.py            the run's progress (steps seen) and its pacing clock, ctl/end and ctl/gone
+    swarmhost/recorder_process.py  the MCAP recorder process
+    swarmhost/helpers.py           the router, recorder and coordinator, watched: a lost one ends the run (HelperLost)
 
 and `run_swarm` holds the start barrier: every agent's alive token before the start signal. Every process
 started is stopped when the launcher closes (also on an exception or SIGINT/SIGTERM).
@@ -25,9 +25,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from agent.helpers import Helpers
-from agent.initial_neighbours import initial_neighbours
-from agent.pacing import Pacer
 from agent.protocol import keys
 from agent.protocol.access import AGENT_CAPACITY
 from agent.protocol.access import level as access_level
@@ -35,10 +32,13 @@ from agent.protocol.errors import UserError
 from agent.protocol.events import AgentEvent
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
-from agent.recorder_process import RecorderProcess
-from agent.router_host import RouterHost
 from agent.sph.particle import Control, initial_state
-from agent.supervisor import Supervisor, Swarm
+from swarmhost.helpers import Helpers
+from swarmhost.initial_neighbours import initial_neighbours
+from swarmhost.pacing import Pacer
+from swarmhost.recorder_process import RecorderProcess
+from swarmhost.router_host import RouterHost
+from swarmhost.supervisor import Supervisor, Swarm
 
 GOLDEN_ANGLE = 2.399963  # rad: late joiners on a spiral, none on top of another
 JOINER_SPACING = 0.6  # m: the spiral's radius grows as JOINER_SPACING * sqrt(k + 1)
@@ -132,7 +132,7 @@ class Launcher:
         )
         self.closed = False
 
-    # the run's progress (agent/pacing.py)
+    # the run's progress (swarmhost/pacing.py)
     @property
     def step_times(self) -> dict[int, float]:
         return self.pacer.step_times
@@ -159,7 +159,7 @@ class Launcher:
     def end_at(self, step: int) -> None:
         self.pacer.end_at(step)
 
-    # the recorder (agent/recorder_process.py)
+    # the recorder (swarmhost/recorder_process.py)
     def start_recorder(
         self,
         path: str,
@@ -198,7 +198,7 @@ class Launcher:
             except ValueError as exc:
                 raise UserError(f"{exc}; nothing was started") from None
 
-    # the agents (agent/supervisor.py)
+    # the agents (swarmhost/supervisor.py)
     def spec_for(self, agent_id: int, state: np.ndarray, control: Control, params, steps: int, **extra) -> AgentSpec:
         p = params.as_dict()
         p["domain"] = list(p["domain"])

@@ -22,7 +22,7 @@ import tempfile
 import threading
 from typing import IO
 
-from agent.executable import router_executable
+from swarmhost.executable import router_executable
 
 CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
 CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_main.rs)
@@ -143,7 +143,7 @@ class RouterProcess:
 
 
 class CompiledRelay:
-    """The relay inside the compiled router, with agent/relay.py's interface: `add`, `rejected`, `close`."""
+    """The relay inside the compiled router, with swarmhost/relay.py's interface: `add`, `rejected`, `close`."""
 
     def __init__(self, router: RouterProcess):
         self._router = router
@@ -157,7 +157,7 @@ class CompiledRelay:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Reason -> states the relay dropped so far (the reasons of agent/relay.py); after the router closed,
+        """Reason -> states the relay dropped so far (the reasons of swarmhost/relay.py); after the router closed,
         its last counts."""
         return self._router.rejected()
 

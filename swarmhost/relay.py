@@ -12,7 +12,7 @@ per-process rights took before: docs/benchmarks/security.md).
 This one runs on a launcher's session when the launcher is a client of its host's router (a multi-host run):
 each host's launcher relays only the agents it started (`add`), once. A launcher's embedded router at level
 `acl` is the compiled `fluidswarm-router`, whose relay (agent/native/src/relay.rs) does the same on the
-router's own session without Python (agent/router_process.py; the Python relay there cost ~3 s of launcher
+router's own session without Python (swarmhost/router_process.py; the Python relay there cost ~3 s of launcher
 CPU per 200 steps at N = 300, docs/benchmarks/security.md). tests/test_relay.py runs one test on both.
 """
 

@@ -13,7 +13,7 @@ from typing import IO
 
 from agent.protocol import keys
 from agent.protocol.errors import UserError
-from agent.supervisor import die_with_parent, stop_process
+from swarmhost.supervisor import die_with_parent, stop_process
 
 
 class RecorderProcess:
