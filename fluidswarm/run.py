@@ -323,7 +323,7 @@ class Run:
             p.setup.params,
             p.steps,
             robot=p.setup.robot.as_dict(),
-            radio=p.setup.radio.as_dict(),
+            **({} if p.setup.radio.is_perfect else {"radio": p.setup.radio.as_dict()}),
             **p.sync.spec(),
         )
 

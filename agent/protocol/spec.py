@@ -95,7 +95,10 @@ class AgentSpec:
     radio: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), separators=(",", ":"))
+        fields = asdict(self)
+        if not fields["radio"]:
+            del fields["radio"]  # a perfect radio is the default: the spec of a run without one is as before
+        return json.dumps(fields, separators=(",", ":"))
 
     @classmethod
     def from_json(cls, text: str) -> AgentSpec:
