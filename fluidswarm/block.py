@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from fluidswarm.run import Run, SwarmPlan, Sync
 
@@ -18,7 +19,8 @@ class Block:
     """`agents` agent processes on a spread block (agent/sph/setups.py) for `steps` steps; `ids` the slice
     started on this host (None: all); `record` an MCAP file to write (None: none); `reference`: compare the
     final states with the per-particle reference driver (`figures["max_position_error"]` [m]); `robot` the
-    particles' body and drive (agent/sph/robot.py; checked against the block by `setup()` before the run)."""
+    particles' body and drive (agent/sph/robot.py; checked against the block by `setup()` before the run);
+    `radio` what their radios make of the states they receive (agent/sph/radio.py)."""
 
     agents: int
     steps: int
@@ -30,13 +32,15 @@ class Block:
     run_timeout: float | None = None
     kind: str = "launch"
     robot: RobotModel = POINT
+    radio: RadioModel = PERFECT
 
     def make_setup(self):
         """The block with its robots (ValueError naming the robot's key when they do not fit it)."""
         from agent.sph.setups import spread_block
 
         setup = spread_block(self.agents)
-        return setup if self.robot == POINT else setup.with_robot(self.robot)
+        setup = setup if self.robot == POINT else setup.with_robot(self.robot)
+        return setup if self.radio == PERFECT else replace(setup, radio=self.radio)
 
     def drive(self, run: Run) -> None:
         run.launcher.check_ids(range(self.agents))  # before the recorder: nothing starts for a swarm too large
@@ -49,6 +53,7 @@ class Block:
                     "steps": self.steps,
                     "params": setup.params.as_dict(),
                     "robot": setup.robot.as_dict(),
+                    "radio": setup.radio.as_dict(),
                 },
                 setup.params.dt,
                 path=self.record,
@@ -73,7 +78,7 @@ class Block:
 
         s, r = self.setup, run.record
         ids = self.ids if self.ids is not None else [int(i) for i in s.ids]
-        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params, s.robot).run(self.steps)
+        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params, s.robot, s.radio).run(self.steps)
         missing = [i for i in ids if i not in r.finals or not r.finals[i].done]
         r.figures["agents_missing"] = len(missing)
         if missing:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -18,7 +18,7 @@ DEFAULT_STEPS = 400
 
 def experiment_setup(sc: Scenario, agents: int):
     """The scenario's set-up (agent/sph/setups.py) for `agents` particles, with its [sph] and dt overrides and its
-    [robot] (a UserError naming the key when the robots do not fit it)."""
+    [robot] (a UserError naming the key when the robots do not fit it) and its [radio]."""
     from agent.sph import setups
     from agent.sph.robot import POINT
 
@@ -27,6 +27,8 @@ def experiment_setup(sc: Scenario, agents: int):
     setup = base(agents)
     if sc.sph or sc.dt:
         setup = base(agents, params=setup.params.with_overrides(sc.sph, sc.dt))
+    if not sc.radio.is_perfect:
+        setup = replace(setup, radio=sc.radio)
     if sc.robot == POINT:
         return setup
     try:
@@ -63,6 +65,7 @@ class Experiment:
             "sync": sc.sync,
             "params": setup.params.as_dict(),
             "robot": setup.robot.as_dict(),
+            "radio": setup.radio.as_dict(),
             "agent_ids": [int(i) for i in setup.ids],
             "failures": [f.__dict__ for f in sc.failures],
         }

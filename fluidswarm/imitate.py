@@ -11,13 +11,14 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from agent.protocol.errors import UserError
+from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.imitation_setup import (
@@ -118,7 +119,8 @@ class FileImitation:
     """Imitate `input_path`: one frame (`frame`, default 0) until the formation settles (`settle`; None:
     always `steps` steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each shown for
     `frame_steps` swarm steps. `sph`/`dt` override the imitation's SPH parameters; `drop`: agent id ->
-    fraction of its states it drops (failure injection); `robot` the particles' body and drive."""
+    fraction of its states it drops (failure injection); `robot` the particles' body and drive; `radio` what
+    their radios make of the states they receive (agent/sph/radio.py; its draws seeded from the run's seed)."""
 
     input_path: str
     agents: int = 60
@@ -133,6 +135,7 @@ class FileImitation:
     settle: SettleRule | None = SettleRule()
     kind: str = "imitation"
     robot: RobotModel = POINT
+    radio: RadioModel = PERFECT
 
     def __post_init__(self):
         if self.frame_steps > 0:
@@ -149,8 +152,10 @@ class FileImitation:
                 im.setup = im.setup.with_robot(self.robot)
             except ValueError as exc:
                 raise UserError(f"--robot: {exc}") from None
-        self.im = im
         o = run.options
+        if self.radio != PERFECT:
+            im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
+        self.im = im
         tmp = run.scratch
         target, image = write_target(tmp, im, im.observation.frame)
         meta = {
@@ -166,6 +171,7 @@ class FileImitation:
             "sync": self.sync.mode,
             "params": im.setup.params.as_dict(),
             "robot": im.setup.robot.as_dict(),
+            "radio": im.setup.radio.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),
             "failures": [getattr(f, "__dict__", str(f)) for f in o.failures],
@@ -233,11 +239,12 @@ def imitate(
     live: str = "",
     progress: bool = False,
     robot: RobotModel = POINT,
+    radio: RadioModel = PERFECT,
 ) -> RunRecord:
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 
-    kind = FileImitation(str(input_path), agents, steps, controller, frame, robot=robot)
+    kind = FileImitation(str(input_path), agents, steps, controller, frame, robot=robot, radio=radio)
     options = RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, progress=progress)
     with Run(kind, options) as run:
         kind.drive(run)

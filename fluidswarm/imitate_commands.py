@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from agent.protocol.errors import UserError
 from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 
@@ -47,6 +48,7 @@ def register(sub) -> None:
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
     add_robot_argument(p)
+    add_radio_arguments(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_imitate)
@@ -77,9 +79,12 @@ def _imitate(args) -> int:
         raise UserError(f"--stall-seconds: must be in (0, 3600), got {args.stall_seconds}")
     live = live_from_args(args)
     robot = robot_model(args.robot)
+    radio = radio_model(radio_options(args))
     if args.camera is not None:
         if args.robot is not None:
             raise UserError("--robot: not yet with --camera (an input file only)")
+        if radio_options(args):
+            raise UserError("--radio-*: not yet with --camera (an input file only)")
         from fluidswarm.imitate_camera import imitate_camera
 
         record = imitate_camera(
@@ -107,6 +112,7 @@ def _imitate(args) -> int:
                 name=Path(args.input).stem or "imitate",
                 live=live,
                 robot=robot,
+                radio=radio,
             )
         except (InputError, SegmentationError, ShapeError) as exc:
             raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
@@ -127,6 +133,9 @@ def print_lines(r: RunRecord) -> None:
     print(f"formation_settled={'true' if r.formation_settled else 'false'}")
     print(f"agents_finished={r.finished}")
     print(f"robot={r.robot}")
+    for k, v in (r.radio or {}).items():
+        if k != "seed":
+            print(f"radio_{k}={v}")
     if r.collisions is not None:
         print(f"collisions={r.collisions}")
         print(f"min_separation_m={r.min_separation_m:.4f}")

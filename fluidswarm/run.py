@@ -137,6 +137,7 @@ class RunRecord:
     formation_wall_seconds: float | None = None
     formation_settled: bool | None = None
     robot: str = "point"
+    radio: dict | None = None  # the imperfect radio's loss, latency, noise, seed (agent/sph/radio.py); None: perfect
     collisions: int | None = None
     min_separation_m: float | None = None
     figures: dict[str, float | int | str] = field(default_factory=dict)
@@ -316,7 +317,14 @@ class Run:
         at = p.joiners_at if p.joiners_at is not None else tuple(p.setup.states[:, :2].mean(axis=0))
         control = p.joiner_control if p.joiner_control is not None else p.setup.controls[0]
         return self.launcher.spawn_joiners(
-            count, at, control, p.setup.params, p.steps, robot=p.setup.robot.as_dict(), **p.sync.spec()
+            count,
+            at,
+            control,
+            p.setup.params,
+            p.steps,
+            robot=p.setup.robot.as_dict(),
+            **({} if p.setup.radio.is_perfect else {"radio": p.setup.radio.as_dict()}),
+            **p.sync.spec(),
         )
 
     def _progress(self) -> None:
@@ -377,6 +385,9 @@ def robot_figures(mcap: Path | None, setup) -> dict:
 
     robot = getattr(setup, "robot", None)
     out: dict = {"robot": robot.kind if robot is not None else "point"}
+    radio = getattr(setup, "radio", None)
+    if radio is not None and not radio.is_perfect:
+        out["radio"] = radio.as_dict()
     measured = recorded_robots(mcap) if mcap is not None and Path(mcap).exists() else None
     if measured:
         out["collisions"] = int(measured["collisions"])

@@ -15,6 +15,7 @@ from typing import Any
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES
 from agent.sph.params import SPHParams
+from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
 
@@ -117,6 +118,7 @@ class Scenario:
     neighbour_timeout: float = 0.0  # s a silent expected neighbour is waited for (0: the experiment's default)
     sph: dict = field(default_factory=dict)
     robot: RobotModel = POINT  # [robot]: kind, radius, v_max, a_max, omega_max, offset (agent/sph/robot.py)
+    radio: RadioModel = PERFECT  # [radio]: loss, latency, noise (agent/sph/radio.py), seeded from `seed`
     failures: tuple[Failure, ...] = ()
     passing: PassCriteria = PassCriteria()
     description: str = ""
@@ -181,6 +183,7 @@ def load_scenario(path: str | Path) -> Scenario:
         "neighbour_timeout",
         "sph",
         "robot",
+        "radio",
         "failures",
         "pass",
     }
@@ -245,6 +248,10 @@ def load_scenario(path: str | Path) -> Scenario:
             )
     kw["sph"] = sph
     kw["robot"] = scenario_robot(file, _typed(file, "robot", raw.get("robot", {}), dict))
+    from fluidswarm.radio_option import check_lockstep, radio_model
+
+    kw["radio"] = radio_model(_typed(file, "radio", raw.get("radio", {}), dict), kw.get("seed", 0), where=file)
+    check_lockstep(kw["radio"], kw.get("sync", "lockstep"), f"{file}: key 'radio'")
     failures = []
     raw_f = raw.get("failures", [])
     if not isinstance(raw_f, list):

@@ -11,6 +11,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from agent.sph.robot import POINT
 from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.scenario import (
@@ -64,12 +65,14 @@ def register(sub) -> None:
         "--compare", action="store_true", help="also run without failures (same seed) and print fidelity_ratio"
     )
     add_robot_argument(p)
+    add_radio_arguments(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
     p.add_argument("--out", default="out/demo")
     add_robot_argument(p)
+    add_radio_arguments(p)
     add_live_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_demo)
@@ -150,6 +153,7 @@ def kind_for(sc: Scenario, agents: int):
         scenario_sync(sc),
         drop,
         robot=sc.robot,
+        radio=sc.radio,
     )
 
 
@@ -213,6 +217,8 @@ def scenario_figures(r: RunRecord) -> dict:
 def robot_lines(r: RunRecord) -> dict:
     """robot=, and what the recorder measured on the bodies (collisions=, min_separation_m=) when it did."""
     f: dict = {"robot": r.robot}
+    if r.radio:
+        f.update({f"radio_{k}": v for k, v in r.radio.items() if k != "seed"})
     if r.collisions is not None:
         f.update(collisions=r.collisions, min_separation_m=r.min_separation_m)
     return f
@@ -261,12 +267,24 @@ def _run(args) -> int:
                 args.robot,
             ),
         )
+    sc = with_radio_options(sc, args)
     out = Path(args.out or f"out/{sc.name}")
     return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live_from_args(args)))
+
+
+def with_radio_options(sc: Scenario, args) -> Scenario:
+    """The scenario with the --radio-* options over its [radio] table (seeded from its seed)."""
+    given = radio_options(args)
+    if given:
+        table = {k: v for k, v in sc.radio.as_dict().items() if k != "seed"}
+        sc = replace(sc, radio=radio_model({**table, **given}, sc.seed))
+    check_lockstep(sc.radio, sc.sync, "--radio-*" if given else f"{sc.path}: key 'radio'")
+    return sc
 
 
 def _demo(args) -> int:
     sc = load_scenario(scenarios_dir() / DEMO_SCENARIO)
     if args.robot is not None:
         sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
+    sc = with_radio_options(sc, args)
     return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args)))

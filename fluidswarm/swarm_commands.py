@@ -8,6 +8,7 @@ from pathlib import Path
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 
@@ -38,6 +39,7 @@ def register(sub) -> None:
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
     add_live_argument(p)
     add_robot_argument(p)
+    add_radio_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_launch)
 
@@ -52,6 +54,7 @@ def register(sub) -> None:
     p.add_argument("--run", help="run name shared by every host of a split run")
     _add_auth_file_argument(p)
     add_robot_argument(p)
+    add_radio_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_verify)
 
@@ -170,7 +173,9 @@ def _launch(args) -> int:
         ids,
         args.record,
         robot=robot_model(args.robot),
+        radio=radio_model(radio_options(args)),
     )
+    check_lockstep(kind.radio, args.mode, "--radio-*")
     _check_block(kind)
     with Run(kind, options) as run:
         # the run's name and router come first, as they happen: the other hosts of a split run need them
@@ -203,7 +208,15 @@ def _verify(args) -> int:
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     if args.ids and not args.run:
         raise UserError("--ids needs --run: every host of a split run must use the same run name")
-    kind = Block(args.agents, args.steps, ids=ids, reference=True, kind="verify", robot=robot_model(args.robot))
+    kind = Block(
+        args.agents,
+        args.steps,
+        ids=ids,
+        reference=True,
+        kind="verify",
+        robot=robot_model(args.robot),
+        radio=radio_model(radio_options(args)),
+    )
     _check_block(kind)
     with Run(kind, _options(args, "verify", args.timeout)) as run:
         kind.drive(run)

@@ -303,6 +303,8 @@ def run_swarm(
                 **spec_extra,
                 "neighbours": near[i],
                 "robot": setup.robot.as_dict(),
+                # only an imperfect radio is written: a perfect one is the agent's default
+                **({} if setup.radio.is_perfect else {"radio": setup.radio.as_dict()}),
                 **(per_agent or {}).get(i, {}),
             }
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))

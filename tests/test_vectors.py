@@ -161,3 +161,4 @@ def test_files_are_current():
     assert same(gen.route_vectors(), ROUTE)
     assert same(gen.fill_vectors(), FILL)
     assert same(gen.sph_step_vectors(), load("sph_steps.json"))
+    assert same(gen.radio_vectors(), load("radio.json"))

@@ -10,6 +10,7 @@ from enum import StrEnum
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
+from agent.sph.radio import RadioModel
 from agent.sph.robot import RobotModel
 
 
@@ -69,6 +70,8 @@ class AgentSpec:
     neighbours     [[id, x, y], ...]: agents placed near this one; those in its watched cells are its step-0
                    neighbours (swarmhost/initial_neighbours.py)
     robot          the particle's body and drive, RobotModel fields (agent/sph/robot.py; {}: a point)
+    radio          what its radio and localisation make of the states it receives, RadioModel fields
+                   (agent/sph/radio.py: loss, latency, noise, seed; {}: perfect; lockstep only)
     """
 
     run: str
@@ -89,9 +92,13 @@ class AgentSpec:
     max_age: float = 1.0
     neighbours: list = field(default_factory=list)
     robot: dict = field(default_factory=dict)
+    radio: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), separators=(",", ":"))
+        fields = asdict(self)
+        if not fields["radio"]:
+            del fields["radio"]  # a perfect radio is the default: the spec of a run without one is as before
+        return json.dumps(fields, separators=(",", ":"))
 
     @classmethod
     def from_json(cls, text: str) -> AgentSpec:
@@ -151,6 +158,9 @@ class AgentSpec:
                 f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)"
             )
         self.robot_model().check_fits(self.sph_params().v_max)
+        radio = self.radio_model()
+        if self.mode == SyncMode.ASYNC and not radio.is_perfect:
+            raise ValueError("agent spec: radio: the imperfect radio is modelled in lockstep only (mode async)")
         self.static_control()
 
     def robot_model(self) -> RobotModel:
@@ -160,6 +170,16 @@ class AgentSpec:
             return RobotModel(**self.robot)
         except TypeError as exc:
             raise ValueError(f"agent spec: robot: {exc}") from None
+
+    def radio_model(self) -> RadioModel:
+        if not isinstance(self.radio, dict):
+            raise ValueError(f"agent spec: radio must be an object, got {self.radio!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
+        try:
+            return RadioModel(**self.radio)
+        except TypeError as exc:
+            raise ValueError(f"agent spec: radio: {exc}") from None
+        except ValueError as exc:
+            raise ValueError(f"agent spec: {exc}") from None
 
     def sph_params(self) -> SPHParams:
         if not isinstance(self.params, dict):

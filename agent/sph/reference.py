@@ -41,6 +41,7 @@ from agent.sph.particle import (
     cap_speed,
     step_particle,
 )
+from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import (
     CONTACT_MARGIN,
     POINT,
@@ -107,7 +108,8 @@ def cell_pairs(positions: np.ndarray, active: np.ndarray, cell: float) -> tuple[
 class Driver:
     """A centralised solver of the swarm: particles sorted by id (an agent's neighbour order), one
     `step()` a time step of all of them; `run(steps)` returns the states after the last. `robot`: every
-    particle's body and drive (agent/sph/robot.py)."""
+    particle's body and drive (agent/sph/robot.py); `radio`: what their radios make of their neighbours'
+    states (agent/sph/radio.py; the per-particle driver only)."""
 
     def __init__(
         self,
@@ -116,6 +118,7 @@ class Driver:
         controls: Sequence[ControlSource],
         params: SPHParams,
         robot: RobotModel = POINT,
+        radio: RadioModel = PERFECT,
     ):
         order = np.argsort(np.asarray(ids), kind="stable")
         self.ids = np.asarray(ids)[order]
@@ -123,7 +126,10 @@ class Driver:
         self.controls = [controls[k] for k in order]
         self.params = params
         self.robot = robot
+        self.radio = radio
         self.step_index = 0
+        # the states of the last radio.latency + 1 steps, oldest first (the radio's latency)
+        self.history: list[np.ndarray] = []
 
     def step(self) -> None:
         raise NotImplementedError
@@ -145,10 +151,40 @@ class PerParticleDriver(Driver):
         by_particle = np.split(
             j_idx[np.lexsort((j_idx, i_idx))], np.cumsum(np.bincount(i_idx, minlength=len(current)))[:-1]
         )
+        if not self.radio.is_perfect:
+            self._radio_step(current, by_particle)
+            return
         for k in range(len(current)):
             neighbours = current[np.sort(by_particle[k])]  # ids are sorted, so index order is id order
             control = self.controls[k].control(current[k], self.step_index)
             new[k] = step_particle(current[k], neighbours, control, params, self.robot)
+        self.states = new
+        self.step_index += 1
+
+    def _radio_step(self, current: np.ndarray, by_particle: list[np.ndarray]) -> None:
+        """The step as agents with an imperfect radio take it (agent/sph/radio.py, agent/native/src/agent/step.rs
+        `radio_rows`): the neighbours the step's states put within the support, each as its state of
+        latency steps back (step 0 at the start), unless that state is lost to the receiver, with its
+        localisation's error on the position."""
+        radio, params, t = self.radio, self.params, self.step_index
+        self.history = [*self.history, current][-(radio.latency + 1) :]
+        old = self.history[0]
+        s = max(t - radio.latency, 0)
+        ids = [int(i) for i in self.ids]
+        error = np.array([radio.position_error(j, s) for j in ids]).reshape(-1, 2)
+        new = np.empty_like(current)
+        for k in range(len(current)):
+            near = np.sort(by_particle[k])
+            own = current[k]
+            dx, dy = own[X] - current[near, X], own[Y] - current[near, Y]
+            support = params.support
+            near = near[(dx * dx + dy * dy <= support * support) & (current[near, FROZEN] == 0.0)]
+            near = near[[not radio.lost(ids[k], ids[j], s) for j in near]].astype(np.int64)
+            rows = old[near].copy()
+            rows[:, X] += error[near, 0]
+            rows[:, Y] += error[near, 1]
+            control = self.controls[k].control(own, t)
+            new[k] = step_particle(own, rows, control, params, self.robot)
         self.states = new
         self.step_index += 1
 
@@ -162,6 +198,8 @@ class VectorisedDriver(Driver):
         return {n: np.array([getattr(c, n) for c in cs], dtype=float) for n in names}
 
     def step(self) -> None:
+        if not self.radio.is_perfect:
+            raise NotImplementedError("the vectorised driver has a perfect radio: use PerParticleDriver")
         params, s = self.params, self.states
         n = len(s)
         h, m = params.h, params.mass

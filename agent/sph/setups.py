@@ -12,13 +12,15 @@ import numpy as np
 
 from agent.sph.params import SPHParams
 from agent.sph.particle import HEADING, SPEED, VX, VY, Control, X, Y, initial_state
+from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, body_centres, check_layout, initial_pose
 
 
 @dataclass
 class Setup:
     """A deterministic set-up: ids, initial states (N, NFIELDS), a Control per particle, class labels, and
-    the particles' body and drive (`robot`, agent/sph/robot.py; `with_robot` gives another)."""
+    the particles' body and drive (`robot`, agent/sph/robot.py; `with_robot` gives another) and what their
+    radios make of the states they receive (`radio`, agent/sph/radio.py)."""
 
     ids: np.ndarray
     states: np.ndarray
@@ -27,6 +29,7 @@ class Setup:
     class_names: tuple[str, ...]
     params: SPHParams
     robot: RobotModel = POINT
+    radio: RadioModel = PERFECT
 
     def with_robot(self, robot: RobotModel) -> Setup:
         """This set-up with `robot` bodies: their initial poses, checked against the fluid's speed limit and

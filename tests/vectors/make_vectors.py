@@ -14,6 +14,8 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
                             agent.protocol.command.edges_cross
     ctl.json                agent.protocol.ctl.decode_ctl: the launcher's ctl/<what> payloads, decoded or dropped
     events.json             agent.protocol.events.decode_event: agent events, decoded or dropped
+    radio.json              agent.sph.radio: the counter-based draws of the imperfect radio (loss, position error;
+                            agent/native/tests/radio_vectors.rs checks radio.rs)
     sph_steps.json          agent.sph.particle.step_particle (numpy, the physics oracle): one particle's step,
                             neighbours in, next state out (agent/native/tests/sph_vectors.rs checks sph.rs)
 
@@ -38,6 +40,7 @@ from make.common import SECRET
 from make.ctl import ctl_vectors
 from make.events import event_vectors
 from make.fill import fill_vectors
+from make.radio import radio_vectors
 from make.route import route_vectors
 from make.sph_steps import sph_step_vectors
 from make.state_records import state_vectors
@@ -48,6 +51,7 @@ __all__ = [
     "event_vectors",
     "fill_vectors",
     "follower_sequences",
+    "radio_vectors",
     "route_vectors",
     "sph_step_vectors",
     "state_vectors",
@@ -64,6 +68,7 @@ def main() -> None:
     write("fill.json", fill_vectors())
     write("ctl.json", ctl_vectors())
     write("sph_steps.json", sph_step_vectors())
+    write("radio.json", radio_vectors())
     write("events.json", event_vectors())
 
 

@@ -177,6 +177,9 @@ pub struct AgentCore {
     /// the cells subscribed to (sorted: the actions come out in a reproducible order)
     cells: BTreeSet<(i64, i64)>,
     buffer: BTreeMap<u32, BTreeMap<u32, State>>,
+    /// step -> id -> state of the last `radio.latency` steps done (and late arrivals for them): a radio with
+    /// latency k uses a neighbour's state of k steps back (step.rs, `radio_rows`)
+    history: BTreeMap<u32, BTreeMap<u32, State>>,
     /// id -> (step, x, y) of its latest sighting; step -1 with NaN position: a step-0 neighbour from the spec, not yet heard
     latest: HashMap<u32, (i64, f64, f64)>,
     heard_at: HashMap<u32, f64>,
@@ -231,6 +234,7 @@ impl AgentCore {
             out: Vec::new(),
             cells: BTreeSet::new(),
             buffer: BTreeMap::new(),
+            history: BTreeMap::new(),
             latest: HashMap::new(),
             heard_at: HashMap::new(),
             dead: HashSet::new(),

@@ -11,6 +11,7 @@ pub mod event;
 pub mod fill;
 pub mod final_report;
 pub mod keys;
+pub mod radio;
 pub mod relay;
 pub mod robot;
 pub mod route;

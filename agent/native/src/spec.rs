@@ -7,9 +7,12 @@ mod fields;
 use serde_json::Value;
 
 use crate::keys;
+use crate::radio::Radio;
 use crate::robot::Robot;
 use crate::sph::{Control, Params};
-use fields::{err, number, only, parse_control, parse_neighbours, parse_params, parse_robot, positive, string};
+use fields::{
+    err, number, only, parse_control, parse_neighbours, parse_params, parse_radio, parse_robot, positive, string,
+};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
@@ -43,6 +46,9 @@ pub struct AgentSpec {
     pub neighbours: Vec<(u32, f64, f64)>,
     /// The particle's body and drive (agent/sph/robot.py); a point unless told
     pub robot: Robot,
+    /// What this agent's radio and localisation make of the states it receives (agent/sph/radio.py); perfect
+    /// unless told
+    pub radio: Radio,
 }
 
 const FIELDS: &[&str] = &[
@@ -64,6 +70,7 @@ const FIELDS: &[&str] = &[
     "max_age",
     "neighbours",
     "robot",
+    "radio",
 ];
 
 impl AgentSpec {
@@ -134,6 +141,10 @@ impl AgentSpec {
         }
         let params = parse_params(obj.get("params"))?;
         let robot = parse_robot(obj.get("robot"), params.v_max)?;
+        let radio = parse_radio(obj.get("radio"))?;
+        if mode == Mode::Async && !radio.is_perfect() {
+            return err("radio: the imperfect radio is modelled in lockstep only (mode async)".into());
+        }
         Ok(AgentSpec {
             run,
             id,
@@ -153,6 +164,7 @@ impl AgentSpec {
             max_age: positive(&obj, "max_age", 1.0)?,
             neighbours: parse_neighbours(obj.get("neighbours"))?,
             robot,
+            radio,
         })
     }
 }
@@ -220,5 +232,29 @@ mod tests {
             let e = AgentSpec::from_json(&with(bad)).unwrap_err();
             assert!(e.contains(names), "{bad}: {e}");
         }
+    }
+
+    #[test]
+    fn radio_settings() {
+        assert!(AgentSpec::from_json(GOOD).unwrap().radio.is_perfect());
+        let with = |r: &str| GOOD.replace("\"steps\":10", &format!("\"steps\":10,\"radio\":{r}"));
+        let s = AgentSpec::from_json(&with(r#"{"loss":0.1,"latency":2,"noise":0.05,"seed":18446744073709551615}"#));
+        let r = s.unwrap().radio;
+        assert_eq!((r.loss, r.latency, r.noise, r.seed), (0.1, 2, 0.05, u64::MAX));
+        for (bad, names) in [
+            (r#"{"loss":1}"#, "radio.loss"),
+            (r#"{"loss":-0.1}"#, "radio.loss"),
+            (r#"{"latency":5}"#, "radio.latency"),
+            (r#"{"latency":1.5}"#, "radio.latency"),
+            (r#"{"noise":-1}"#, "radio.noise"),
+            (r#"{"seed":-1}"#, "radio.seed"),
+            (r#"{"jitter":1}"#, "radio.\"jitter\""),
+            ("[]", "radio must be an object"),
+        ] {
+            let e = AgentSpec::from_json(&with(bad)).unwrap_err();
+            assert!(e.contains(names), "{bad}: {e}");
+        }
+        let lossy_async = with(r#"{"loss":0.1}"#).replace("\"steps\":10", "\"steps\":10,\"mode\":\"async\"");
+        assert!(AgentSpec::from_json(&lossy_async).unwrap_err().contains("lockstep only"));
     }
 }

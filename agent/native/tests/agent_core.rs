@@ -218,6 +218,7 @@ sequences!(
     no_command,
     no_start,
     pacing,
+    radio_lost_state,
     rejoin_after_freeze,
     stop_signal,
     the_end,

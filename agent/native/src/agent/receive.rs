@@ -115,6 +115,12 @@ impl AgentCore {
         }
         if step < self.step {
             self.counters.stale += 1;
+            // A radio with latency k uses states up to k steps old: one that came after its step was done
+            // (a neighbour not expected then) is kept for that (step.rs, `radio_rows`).
+            let k = self.spec.radio.latency;
+            if k > 0 && step + k >= self.step {
+                self.history.entry(step).or_default().entry(j).or_insert(values);
+            }
             return;
         }
         self.buffer.entry(step).or_default().insert(j, values);

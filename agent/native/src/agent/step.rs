@@ -2,6 +2,8 @@
 //! the neighbours heard within max_age); both advance the particle with `sph::step_particle`, put the state
 //! and follow it with the cells they hear.
 
+use std::collections::BTreeMap;
+
 use super::{Action, AgentCore, Lock, Phase, Wake, CLOCK_LEAD, PACE_SLICE};
 use crate::event::EventKind;
 use crate::final_report::Status;
@@ -24,11 +26,46 @@ impl AgentCore {
 
     /// Lockstep: the states of the step waited for (sorted by id, as the reference driver), the next state.
     pub(super) fn finish_step(&mut self, now: f64) {
-        let rows: Vec<State> = self.buffer.remove(&self.step).map(|c| c.into_values().collect()).unwrap_or_default();
+        let current = self.buffer.remove(&self.step).unwrap_or_default();
         // Drop what is older than the current step (late duplicates would pile up otherwise).
         let step = self.step;
         self.buffer.retain(|&s, _| s > step);
+        let rows: Vec<State> =
+            if self.spec.radio.is_perfect() { current.into_values().collect() } else { self.radio_rows(current) };
         self.advance(&rows, now);
+    }
+
+    /// What the imperfect radio makes of the step's states (agent/sph/radio.py; the reference driver does the
+    /// same): the neighbours are those the step-t states put within the support (lockstep guarantees them
+    /// all), each as its state of step t - latency (the oldest held of t - latency .. t), unless that state is
+    /// lost to this receiver, with its localisation's error on the position. Sorted by id.
+    fn radio_rows(&mut self, current: BTreeMap<u32, State>) -> Vec<State> {
+        let radio = self.spec.radio;
+        let step = self.step;
+        let oldest = step.saturating_sub(radio.latency);
+        if radio.latency > 0 {
+            self.history.entry(step).or_default().extend(current.iter().map(|(&j, s)| (j, *s)));
+            self.history.retain(|&s, _| s >= oldest);
+        }
+        let mut rows = Vec::new();
+        for (&j, now_state) in &current {
+            if sph::interacting(&self.state, std::slice::from_ref(now_state), &self.params).next().is_none() {
+                continue;
+            }
+            let (s, mut used) = self
+                .history
+                .range(oldest..step)
+                .find_map(|(&s, states)| states.get(&j).map(|st| (s, *st)))
+                .unwrap_or((step, *now_state));
+            if radio.lost(self.spec.id, j, s) {
+                continue;
+            }
+            let (ex, ey) = radio.position_error(j, s);
+            used[X] += ex;
+            used[Y] += ey;
+            rows.push(used);
+        }
+        rows
     }
 
     fn paced(&self) -> bool {

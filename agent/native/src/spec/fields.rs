@@ -2,6 +2,7 @@
 
 use serde_json::{Map, Value};
 
+use crate::radio::{Radio, MAX_LATENCY};
 use crate::robot::{Kind, Robot};
 use crate::sph::{Control, Params};
 
@@ -9,6 +10,7 @@ const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
 const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
 const ROBOT_FIELDS: &[&str] = &["kind", "radius", "v_max", "a_max", "omega_max", "offset"];
+const RADIO_FIELDS: &[&str] = &["loss", "latency", "noise", "seed"];
 
 pub(super) fn err<T>(msg: String) -> Result<T, String> {
     Err(format!("agent spec: {msg}"))
@@ -192,6 +194,43 @@ pub(super) fn parse_robot(v: Option<&Value>, fluid_v_max: f64) -> Result<Robot, 
             "robot.v_max: the robot's point can move {} m/s, more than the fluid's v_max {fluid_v_max} m/s",
             r.top_particle_speed()
         ));
+    }
+    Ok(r)
+}
+
+/// `radio` (agent/sph/radio.py: RadioModel and its checks): loss in [0, 1), latency an integer in
+/// [0, MAX_LATENCY], noise finite >= 0, seed an unsigned 64-bit integer.
+pub(super) fn parse_radio(v: Option<&Value>) -> Result<Radio, String> {
+    let mut r = Radio::default();
+    let obj = match v {
+        None => return Ok(r),
+        Some(Value::Object(o)) => o,
+        Some(other) => return err(format!("radio must be an object, got {other}")),
+    };
+    only(obj, RADIO_FIELDS, "radio.")?;
+    if let Some(v) = obj.get("loss") {
+        r.loss = match number(v) {
+            Some(x) if (0.0..1.0).contains(&x) => x,
+            _ => return err(format!("radio.loss must be a probability in [0, 1), got {v}")),
+        };
+    }
+    if let Some(v) = obj.get("latency") {
+        r.latency = match v.as_u64() {
+            Some(k) if k <= u64::from(MAX_LATENCY) => k as u32,
+            _ => return err(format!("radio.latency must be an integer in [0, {MAX_LATENCY}], got {v}")),
+        };
+    }
+    if let Some(v) = obj.get("noise") {
+        r.noise = match number(v) {
+            Some(x) if x >= 0.0 => x,
+            _ => return err(format!("radio.noise must be a finite number >= 0, got {v}")),
+        };
+    }
+    if let Some(v) = obj.get("seed") {
+        r.seed = match v.as_u64() {
+            Some(s) => s,
+            None => return err(format!("radio.seed must be an integer in [0, 2^64), got {v}")),
+        };
     }
     Ok(r)
 }
