@@ -14,7 +14,7 @@ from agent.sph.params import SPHParams
 from agent.sph.particle import RHO, VX, VY, Control, P, initial_state
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
-from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.region import body_region_command
 from coordinator.control.route import followers_for
 from fluidswarm.reproduce import plots
@@ -130,13 +130,12 @@ def pressure_switch(ctx: Context, g: Group) -> None:
     )
 
 
-def imitation(path: Path, n: int, controller: str, frame: int | None = None, beta_arm: float | None = None):
+def imitation(path: Path, n: int, controller: str, frame: int = 0, beta_arm: float | None = None):
     """(setup, followers) of an imitation of `path` on the reference driver."""
-    im = prepare_input(str(path), n, controller=controller, frame=frame)
+    im = imitation_of_input(str(path), n, controller, frame)
     command = im.command
     if beta_arm is not None:
         obs = im.observation
-        assert obs is not None  # prepare_input keeps the observation it built
         command = body_region_command(obs.mask, obs.parts, im.transform, n, gesture=obs.label, beta_arm=beta_arm)
     return im.setup, followers_for(command, im.setup.ids), command
 
