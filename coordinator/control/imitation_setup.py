@@ -13,7 +13,7 @@ from enum import StrEnum
 import numpy as np
 
 from agent.protocol.command import GestureCommand
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from coordinator.control.ann import ann_command
@@ -47,14 +47,36 @@ from perception.segmentation import hand_mask
 DEFAULT_STEPS = 700
 
 
-def imitation_params(domain, controller: str = "") -> SPHParams:
+class Controller(StrEnum):
+    """How a silhouette becomes a command: fill (the shape itself, docs/fill.md), region (k-means regions
+    as waypoints), pca (the eigen classifier's gesture template), ann (the thesis' network's force)."""
+
+    FILL = "fill"
+    REGION = "region"
+    PCA = "pca"
+    ANN = "ann"
+
+
+CONTROLLERS = tuple(c.value for c in Controller)
+DEFAULT_CONTROLLER = Controller.FILL
+
+
+def controller_of(name: str) -> Controller:
+    """The Controller named `name` (a Controller is its own name); ValueError naming the known ones."""
+    try:
+        return Controller(name)
+    except ValueError:
+        raise ValueError(f"unknown controller {name!r} (one of {', '.join(CONTROLLERS)})") from None
+
+
+def imitation_params(domain, controller: Controller | None = None) -> SPHParams:
     """SPH settings of the imitation runs: the thesis' model plus a little drag so the swarm settles.
 
     dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
     sets the rest density from the area each particle is given (coordinator/control/fill.py: rest_density).
     """
-    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border="reflect")
-    if controller == "fill":
+    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border=Border.REFLECT)
+    if controller is Controller.FILL:
         params = replace(params, rho0=rest_density(params))
     return params
 
@@ -77,25 +99,11 @@ class Imitation:
         return self.commands[0][1]
 
 
-class Controller(StrEnum):
-    """How a silhouette becomes a command: fill (the shape itself, docs/fill.md), region (k-means regions
-    as waypoints), pca (the eigen classifier's gesture template), ann (the thesis' network's force)."""
-
-    FILL = "fill"
-    REGION = "region"
-    PCA = "pca"
-    ANN = "ann"
-
-
-CONTROLLERS = tuple(c.value for c in Controller)
-DEFAULT_CONTROLLER = Controller.FILL.value
-
-
-def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDomain:
+def transform_for(mask: np.ndarray, n_agents: int, controller: Controller) -> ImageToDomain:
     """The image -> domain map, fixed by the first frame: the fill controller gives each particle more area,
     and its scale is a multiple of 2^-16 m/pixel so the fill shape's vertices (pixel corners) are exact
     binary fractions: a contour that touches itself stays touching, never crosses by a rounding error."""
-    if controller != "fill":
+    if controller is not Controller.FILL:
         return fit_transform(mask, n_agents, AREA_PER_PARTICLE)
     t = fit_transform(mask, n_agents, FILL_AREA)
     scale = round(t.scale * 2**16) / 2**16
@@ -119,19 +127,18 @@ def build_command(
     obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1
 ) -> GestureCommand:
     """The chosen controller's command for one observation (coordinator.control.observe.Observation)."""
-    if controller == "fill":
+    kind = controller_of(controller)
+    if kind is Controller.FILL:
         return fill_command(
             obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64], zones=fill_zones(obs, transform)
         )
-    if controller == "region":
+    if kind is Controller.REGION:
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
         return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
-    if controller == "pca":
+    if kind is Controller.PCA:
         return pca_command(obs, transform, n_agents, seq=seq)
-    if controller == "ann":
-        return ann_command(obs, transform, n_agents, seq=seq)
-    raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
+    return ann_command(obs, transform, n_agents, seq=seq)
 
 
 def commands_along(
@@ -151,11 +158,11 @@ def commands_along(
 
 
 def initial_setup(
-    mask: np.ndarray, transform: ImageToDomain, command: GestureCommand, n_agents: int, controller: str
+    mask: np.ndarray, transform: ImageToDomain, command: GestureCommand, n_agents: int, controller: Controller
 ) -> Setup:
     """SPH parameters and the initial swarm: a compact lattice at the silhouette's most interior point (fill)
     or at the command's common first waypoint (palm / torso centre), each particle in its class."""
-    fill = controller == "fill"
+    fill = controller is Controller.FILL
     params = imitation_params(domain_for(mask, transform), controller)
     if fill:
         centre = np.array(transform.to_domain(np.array(centre_px(mask)) + 0.5))
@@ -187,10 +194,11 @@ def imitation_for(
     target is the last observation's silhouette, in the first one's map."""
     if not shown:
         raise ValueError("no observation to imitate")
+    kind = controller_of(controller)
     first, last = shown[0], shown[-1]
-    transform = transform or transform_for(first.mask, n_agents, controller)
-    commands = commands_along(shown, transform, n_agents, controller)
-    setup = initial_setup(first.mask, transform, commands[0][1], n_agents, controller)
+    transform = transform or transform_for(first.mask, n_agents, kind)
+    commands = commands_along(shown, transform, n_agents, kind)
+    setup = initial_setup(first.mask, transform, commands[0][1], n_agents, kind)
     return Imitation(last.mask, transform, commands, setup, last)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import pdist
 
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import RHO, VX, VY, Control, P, initial_state
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
@@ -54,9 +54,9 @@ def switch_setups(n: int = 100) -> dict[str, tuple[np.ndarray, list, SPHParams]]
         pos = lattice(side * side, side)
         if name == "walls":
             pos = lattice(side * side, side, 0.9, (0.45, 0.45))
-            params = SPHParams(drag=0.5, domain=(0.0, 0.9 * side, 0.0, 0.9 * side), border="reflect")
+            params = SPHParams(drag=0.5, domain=(0.0, 0.9 * side, 0.0, 0.9 * side), border=Border.REFLECT)
         else:
-            params = SPHParams(drag=0.5, domain=(-50.0, 60.0, -50.0, 60.0), border="reflect")
+            params = SPHParams(drag=0.5, domain=(-50.0, 60.0, -50.0, 60.0), border=Border.REFLECT)
         pull = dict(wx=c[0], wy=c[1], r=1.0, s=3.0, alpha=0.5) if name == "body force" else {}
         states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
         out[name] = (states, [Control(**pull) for _ in pos], params)
