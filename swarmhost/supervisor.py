@@ -23,6 +23,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.ctl import Start, Stop, ctl_message
+from agent.protocol.errors import SwarmFailed, SwarmTimeout
 from agent.protocol.events import AgentEvent, decode_event
 from agent.protocol.report import FinalReport, decode_report
 from agent.protocol.spec import AgentSpec
@@ -145,12 +146,12 @@ class Supervisor:
                 left = deadline - time.monotonic()
                 dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
                 if dead:
-                    raise RuntimeError(
+                    raise SwarmFailed(
                         f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})"
                     )
                 if left <= 0:
                     missing = sorted(want - self.swarm.alive)
-                    raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
+                    raise SwarmTimeout(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
                 self.swarm.changed.wait(min(left, 0.2))
 
     def start(self) -> None:
@@ -182,7 +183,7 @@ class Supervisor:
                     return
                 left = deadline - time.monotonic()
                 if left <= 0:
-                    raise TimeoutError(f"{len(pending)} agents still running after {timeout:.0f} s")
+                    raise SwarmTimeout(f"{len(pending)} agents still running after {timeout:.0f} s")
                 self.swarm.changed.wait(min(left, 0.2))
                 if progress is not None:
                     self.swarm.changed.release()
