@@ -18,7 +18,7 @@ from agent.sph.particle import NFIELDS
 VERSION = 1
 MAX_BYTES = 64 * 1024  # a report is ~1 kB; anything far larger is not one
 MAX_COUNT = 2**63 - 1
-MAX_ABS = 1e12  # as for state records (agent/wire.py): larger magnitudes are garbage, not physics
+MAX_ABS = 1e12  # as for state records (agent/native/src/wire.rs): larger magnitudes are garbage, not physics
 
 
 class Status(str, Enum):
