@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
 from coordinator import handover
 from coordinator.camera import load_observation
 from coordinator.control.fidelity import fidelity
@@ -152,7 +152,7 @@ class CameraImitation:
             "controller": self.controller,
             "agents": self.agents,
             "steps": self.steps,
-            "sync": "lockstep",
+            "sync": SyncMode.LOCKSTEP,
             "params": im.setup.params.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),

@@ -90,7 +90,7 @@ class AgentSpec:
     secret: str = ""
     join: bool = False
     state_key_ids: bool = False
-    mode: str = "lockstep"
+    mode: str = SyncMode.LOCKSTEP
     rate: float = 12.0
     max_age: float = 1.0
     neighbours: list = field(default_factory=list)
