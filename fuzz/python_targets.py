@@ -40,6 +40,7 @@ from agent.protocol.access import _PASSWORD_RE, ROLES, AuthFileError, agent_id_o
 from agent.protocol.errors import UserError
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.protocol.spec import AgentSpec
+from agent.sph.particle import NFIELDS
 from fluidswarm.recording.reader import completeness, load_run
 from fluidswarm.scenario import load_scenario
 
@@ -151,7 +152,7 @@ def report(data: bytes) -> None:
     r = rep_mod.decode_report(data)
     if r is None:
         return
-    assert 0 <= r.id < 2**31 and 9 <= len(r.state) <= 10 and len(r.rejected) <= 64 and len(r.agent) <= 32
+    assert 0 <= r.id < 2**31 and 9 <= len(r.state) <= NFIELDS and len(r.rejected) <= 64 and len(r.agent) <= 32
     assert all(math.isfinite(v) and abs(v) <= rep_mod.MAX_ABS for v in r.state)
     assert all(0 <= getattr(r, n) <= rep_mod.MAX_COUNT for n in ("steps", "msgs_received", "lost", "stale"))
     assert all(isinstance(k, str) and len(k) <= 64 and 0 <= v for k, v in r.rejected.items())

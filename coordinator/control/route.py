@@ -1,18 +1,18 @@
 """How an agent follows a gesture command, decided locally from its id (pure, deterministic).
 
-The same `RouteFollower`, `FillFollower` and `class_of` run inside every agent process and in the reference
-drivers: the agent crate's route.rs, through agent._native (typed wrappers here), so a swarm that follows a
-command can be checked against the centralised solver.
+The same `RouteFollower`, `FillFollower`, `CommandFollower` and `class_of` run inside every agent process and
+in the reference drivers: the agent crate's route.rs, through agent._native (typed wrappers here), so a swarm
+that follows a command can be checked against the centralised solver.
 """
 
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 
 from agent.fill import zone_tuples
-from agent.protocol.command import CommandRejected, decode
 from agent.records import native
 from agent.sph.particle import Control, X, Y
 
@@ -82,69 +82,42 @@ def followers_for(command, ids) -> list:
 
 
 class CommandFollower:
-    """The command follower of the agent process (ported to agent/native/src/route.rs): accepts signed commands,
-    follows its class' route. Kept here as the oracle of the shared test vectors (tests/vectors) and the
-    reference drivers."""
+    """The agent's command follower (route.rs CommandFollower, through agent._native): accepts signed commands
+    (republications settled without decoding, replays and forgeries refused and named), follows the newest
+    from its next step, its class' route or the command's shape. The shared test vectors
+    (tests/vectors/command_sequences.json) record what it decides."""
 
     def __init__(self, spec):
-        self._decode = decode
-        self.secret = bytes.fromhex(spec.secret or os.environ.get("FLUIDSWARM_SECRET", ""))
-        self.agent_id = spec.id
-        self.static = spec.static_control()
-        self.command = None
-        self.pending = None
-        self._current_payload: bytes | None = None
-        self._replays: set[bytes] = set()
-        self.follower: RouteFollower | FillFollower | None = None
-        self.particle_class = 0
-        self.accepted = 0
-        self.first_command_at: float | None = None
+        secret = bytes.fromhex(spec.secret or os.environ.get("FLUIDSWARM_SECRET", ""))
+        c = spec.static_control()
+        static = (float(c.wx), float(c.wy), float(c.r), float(c.s), float(c.alpha), float(c.beta), float(c.mu))
+        self._native = native.CommandFollower(secret, int(spec.id), (*static, float(c.push_x), float(c.push_y)))
 
     def offer(self, payload: bytes) -> str | None:
-        # The coordinator republishes the current command every 0.2 s, and a captured old command replayed
-        # is the same bytes again: both are settled without decoding (a flood must not starve the agent).
-        # The one encoder writes a command as one string of bytes, so only those bytes are a republication.
-        if payload == self._current_payload:
-            return None
-        if payload in self._replays:
-            return "replay"
-        try:
-            cmd = self._decode(payload, self.secret)
-        except CommandRejected as exc:
-            return exc.reason
-        newest = self.pending or self.command
-        if newest is not None and cmd.seq <= newest.seq:  # other bytes than the newest's (checked above)
-            if len(self._replays) < 64:  # authentic but old: it stays a replay (seq only grows)
-                self._replays.add(bytes(payload))
-            return "replay"
-        self._current_payload = bytes(payload)
-        self.pending = cmd
-        self.accepted += 1
-        if self.first_command_at is None:
-            import time
-
-            self.first_command_at = time.time()
-        return None
+        """None: accepted (or the current command again); else the reason it was refused."""
+        return self._native.offer(bytes(payload), time.time())
 
     @property
     def has_command(self) -> bool:
-        return self.pending is not None or self.command is not None
+        return self._native.has_command
 
     def control(self, state: np.ndarray, step: int) -> Control:
-        if self.pending is not None:  # a new gesture takes effect at the agent's next step
-            self.command, self.pending = self.pending, None
-            shares = [c.share for c in self.command.classes]
-            self.particle_class = class_of(self.agent_id, self.command.n_agents, shares)
-            self.follower = follower(self.command, self.particle_class)
-        if self.follower is None:
-            return self.static
-        return self.follower.control(state, step)
+        return Control(*self._native.control(float(state[X]), float(state[Y])))
+
+    @property
+    def accepted(self) -> int:
+        return self._native.report()[0]
+
+    @property
+    def particle_class(self) -> int:
+        return self._native.report()[1]
 
     def report(self) -> dict:
+        accepted, particle_class, waypoint, seq, first_at = self._native.report()
         return {
-            "commands_accepted": self.accepted,
-            "particle_class": self.particle_class,
-            "waypoint_index": self.follower.index if self.follower else -1,
-            "command_seq": self.command.seq if self.command else -1,
-            "first_command_at": self.first_command_at,
+            "commands_accepted": accepted,
+            "particle_class": particle_class,
+            "waypoint_index": waypoint,
+            "command_seq": seq,
+            "first_command_at": first_at,
         }

@@ -7,7 +7,8 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
     state_records.json      wire.decode_state: 104-byte v2 records (and a refused v1 one), valid and rejected (reason)
     commands.json           agent.protocol.command.decode: envelopes (raw bytes in hex), accepted (parsed
                             fields, the fill shape when there is one) or rejected (reason)
-    command_sequences.json  coordinator.control.route.CommandFollower: offers in order with each answer, and controls
+    command_sequences.json  coordinator.control.route.CommandFollower (route.rs, through agent._native): offers in
+                            order with each answer, and controls
     route.json              coordinator.control.route.class_counts/class_of and RouteFollower controls
     fill.json               agent.fill.inside/nearest_point and FillFollower controls, and
                             agent.protocol.command.edges_cross

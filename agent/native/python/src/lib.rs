@@ -9,6 +9,7 @@ mod ctl;
 mod events;
 mod json;
 mod keys;
+mod report;
 mod route;
 mod wire;
 
@@ -19,6 +20,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     ctl::register(m)?;
     events::register(m)?;
     keys::register(m)?;
+    report::register(m)?;
     route::register(m)?;
     Ok(())
 }

@@ -5,7 +5,7 @@
 use fluidswarm_agent::command::{Fill, Waypoint, Zone};
 use fluidswarm_agent::fill::{self, Ring};
 use fluidswarm_agent::route;
-use fluidswarm_agent::sph::Control;
+use fluidswarm_agent::sph::{Control, NFIELDS, X, Y};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -102,6 +102,46 @@ impl FillFollower {
     }
 }
 
+/// The agent's controller (route.rs CommandFollower): accepts signed commands, follows the newest from the
+/// next `control`; `static_control` until the first.
+#[pyclass(module = "agent._native")]
+struct CommandFollower(route::CommandFollower);
+
+/// The controller's part of the final report: (commands_accepted, particle_class, waypoint_index, command_seq,
+/// first_command_at).
+type FollowingTuple = (u64, u16, i64, i64, Option<f64>);
+
+#[pymethods]
+impl CommandFollower {
+    #[new]
+    fn new(secret: Vec<u8>, agent_id: u32, static_control: ControlTuple) -> Self {
+        let (wx, wy, r, s, alpha, beta, mu, push_x, push_y) = static_control;
+        let c = Control { wx, wy, r, s, alpha, beta, mu, push_x, push_y };
+        CommandFollower(route::CommandFollower::new(secret, agent_id, c))
+    }
+
+    /// None: accepted, or a republication of the current command; else why it was refused.
+    fn offer(&mut self, payload: &[u8], now_unix: f64) -> Option<&'static str> {
+        self.0.offer(payload, now_unix)
+    }
+
+    #[getter]
+    fn has_command(&self) -> bool {
+        self.0.has_command()
+    }
+
+    fn control(&mut self, x: f64, y: f64) -> ControlTuple {
+        let mut state = [0.0; NFIELDS];
+        (state[X], state[Y]) = (x, y);
+        tuple(self.0.control(&state))
+    }
+
+    fn report(&self) -> FollowingTuple {
+        let f = self.0.report();
+        (f.commands_accepted, f.particle_class, f.waypoint_index, f.command_seq, f.first_command_at)
+    }
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fill_inside, m)?)?;
     m.add_function(wrap_pyfunction!(fill_nearest_point, m)?)?;
@@ -110,5 +150,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(route_class_of, m)?)?;
     m.add_class::<RouteFollower>()?;
     m.add_class::<FillFollower>()?;
+    m.add_class::<CommandFollower>()?;
     Ok(())
 }
