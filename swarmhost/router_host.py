@@ -2,9 +2,10 @@
 
 With an embedded router the local agents link to it over TCP loopback or a unix socket (AGENT_LINK), and
 the router gets the run's fresh credentials and per-process rights (agent/protocol/access.py,
-docs/security.md); as a client the launcher uses the credentials it was given. Under per-process rights (level
-acl, the default) the embedded router is the compiled one with the state relay (swarmhost/router_process.py) and
-the launcher is its client; at auth and none it is the launcher's own zenoh-python session.
+docs/security.md); as a client the launcher uses the credentials it was given. The embedded router is the
+compiled one (swarmhost/router_process.py) at every access level, and the launcher is its client; under
+per-process rights (level acl, the default) its relay puts each state on its cell. A launcher that is a
+client of another host's router (`fluidswarm router`) asks that router's relay (swarmhost/relay.py).
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ from dataclasses import astuple
 import zenoh
 
 from agent.protocol.access import LaunchAccess
-from agent.protocol.session import client_config, router_config, router_config_dict
-from swarmhost.relay import StateRelay
+from agent.protocol.session import client_config, router_config_dict
+from swarmhost.relay import HostRelay
 from swarmhost.router_process import CompiledRelay, RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).
@@ -35,7 +36,8 @@ def free_port() -> int:
 class RouterHost:
     """`endpoint`: where other processes and hosts connect; `agent_endpoint`: where this host's agents
     connect; `access`: the credentials handed to each process; `session`: the launcher's own session;
-    `relay`: the state relay under per-process rights (swarmhost/relay.py's interface), None without them."""
+    `relay`: the state relay under per-process rights (the embedded router's, or the host router's when a
+    client), None without them."""
 
     def __init__(
         self,
@@ -64,16 +66,13 @@ class RouterHost:
                 listeners.append(self.agent_endpoint)
             self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
         try:
-            if not connect and self.access.state_key_ids:
-                # Per-process rights: every state passes the relay, which runs inside a compiled router
-                # (swarmhost/router_process.py); the launcher is its client.
+            if not connect:
+                # The compiled router, the launcher its client: under per-process rights every state passes
+                # its relay (swarmhost/router_process.py).
                 self.process = RouterProcess(
                     run, router_config_dict(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
                 )
-                assert self.access.own is not None  # embedded access always has the launcher's credential
-                conf = client_config([self.endpoint], *astuple(self.access.own))
-            elif not connect:
-                conf = router_config(listeners, dictionary_file=self.access.users_file, acl=self.access.acl)
+                conf = client_config([self.endpoint], *(astuple(self.access.own) if self.access.own else ()))
             self.session = zenoh.open(conf)
         except BaseException:
             self.close_process()
@@ -81,12 +80,15 @@ class RouterHost:
         finally:
             self.access.opened()  # the router has read the users file (or failed to)
         # Under per-process rights agents put their states on their id keys and the relay puts them on the
-        # cells: the compiled router's own, else (a client of another host's router) one on this session
-        self.relay: CompiledRelay | StateRelay | None = None
-        if self.process is not None:
-            self.relay = self.process.relay
-        elif self.access.state_key_ids:
-            self.relay = StateRelay(self.session, run)
+        # cells: the embedded router's, else (a client of another host's router) that router's.
+        self.relay: CompiledRelay | HostRelay | None = None
+        if self.access.state_key_ids:
+            try:
+                host = self.process
+                self.relay = host.relay if host is not None else HostRelay(self.session, run, connect or "")
+            except BaseException:
+                self.close()
+                raise
 
     def close_process(self) -> None:
         if self.process is not None:

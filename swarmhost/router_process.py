@@ -1,5 +1,7 @@
-"""The compiled embedded router (`fluidswarm-router`, agent/native/src/router_main.rs): the launcher's router
-at access level `acl`, with the state relay on the router's own session (agent/native/src/relay.rs).
+"""The compiled router (`fluidswarm-router`, agent/native/src/router_main.rs), with the state relay on the
+router's own session (agent/native/src/relay.rs): every launcher's embedded router (`RouterProcess(run, …)`),
+and a host's router of a multi-host swarm (`RouterProcess(None, …)`: `fluidswarm router`, whose relay the
+launchers of its host ask over Zenoh, swarmhost/relay.py).
 
 Why a process of its own: under per-process rights every state passes the relay (its sender's id key in, its
 cell's key out). On the launcher's zenoh-python session that cost a Python hand-over per state (~3 s of launcher
@@ -34,10 +36,11 @@ class RouterFailed(RuntimeError):
 
 
 class RouterProcess:
-    """`run`: the run's name (the relay's keys); `settings`: the router's Zenoh configuration as a nested dict
-    (agent/protocol/session.py: router_config_dict)."""
+    """`run`: the run's name (the relay's keys), None for a host's router (any run, asked over Zenoh);
+    `settings`: the router's Zenoh configuration as a nested dict (agent/protocol/session.py:
+    router_config_dict). `zid`: the router's Zenoh id, once it has started."""
 
-    def __init__(self, run: str, settings: dict):
+    def __init__(self, run: str | None, settings: dict):
         private = tempfile.mkdtemp(prefix="fluidswarm-router-")  # mode 0700
         errors = None
         try:
@@ -47,7 +50,7 @@ class RouterProcess:
                 json.dump(settings, f)
             errors = open(os.path.join(private, "stderr"), "w+")  # noqa: SIM115  # closed in the finally below
             self.proc = subprocess.Popen(
-                [router_executable(), run],
+                [router_executable(), run if run is not None else "--host"],
                 env=dict(os.environ, **{CONFIG_ENV: path}),
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
@@ -59,7 +62,8 @@ class RouterProcess:
                 # Bounded: a router stuck opening reads no stdin, so the launcher's end would not end it.
                 ready, _, _ = select.select([self._stdout], [], [], START_TIMEOUT)
                 first = self._stdout.readline().strip() if ready else ""
-                if first != "ready":
+                said, _, zid = first.partition(" zid=")
+                if said != "ready" or not zid:
                     self._kill()
                     errors.seek(0)
                     why = errors.read().strip().splitlines()
@@ -76,6 +80,7 @@ class RouterProcess:
             if errors is not None:
                 errors.close()
             shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
+        self.zid = zid
         self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
         self._last_rejected: dict[str, int] = {}  # the relay's counts when the router closed
         self.relay = CompiledRelay(self)
@@ -143,7 +148,8 @@ class RouterProcess:
 
 
 class CompiledRelay:
-    """The relay inside the compiled router, with swarmhost/relay.py's interface: `add`, `rejected`, `close`."""
+    """The relay inside the launcher's embedded router, asked over its stdin: `add`, `rejected`, `close` (as
+    swarmhost/relay.py's HostRelay, the relay of another host's router)."""
 
     def __init__(self, router: RouterProcess):
         self._router = router
@@ -157,7 +163,7 @@ class CompiledRelay:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Reason -> states the relay dropped so far (the reasons of swarmhost/relay.py); after the router closed,
+        """Reason -> states the relay dropped so far (relay.rs REASONS); after the router closed,
         its last counts."""
         return self._router.rejected()
 

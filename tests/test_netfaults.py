@@ -14,7 +14,7 @@ import time
 import pytest
 
 from fluidswarm.recording.reader import load_run
-from tests.test_multihost import FS, PORT, hosts, record  # noqa: F401  (hosts: the routers' fixture)
+from tests.test_multihost import FS, PORT, hosts, record, tls_files  # noqa: F401  (hosts, tls_files: the routers' fixtures)
 
 pytestmark = pytest.mark.swarm  # starts routers, launchers and agents in namespaces (tests/conftest.py)
 

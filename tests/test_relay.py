@@ -1,7 +1,7 @@
-"""The state relays with real Zenoh sessions: a router with the relay on its own session — zenoh-python's with
-swarmhost/relay.py (a launcher's relay), or the compiled router's (swarmhost/router_process.py, the embedded router at
-level acl) — and a client that puts on an agent's id key and listens on the cell keys, as agents do under
-per-process rights."""
+"""The state relay of the compiled router with real Zenoh sessions — a launcher's embedded router (asked over its
+stdin, swarmhost/router_process.py) and a host's router of a multi-host run (`fluidswarm router`: asked over
+Zenoh by the launcher that is its client, swarmhost/relay.py) — and a client that puts on an agent's id key and
+listens on the cell keys, as agents do under per-process rights."""
 
 import contextlib
 import os
@@ -13,10 +13,10 @@ import pytest
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.session import client_config, router_config, router_config_dict
+from agent.protocol.session import client_config, router_config_dict
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
 from agent.sph.particle import NFIELDS
-from swarmhost.relay import StateRelay
+from swarmhost.relay import HostRelay
 from swarmhost.router_host import free_port
 from swarmhost.router_process import RouterFailed, RouterProcess
 from tests.swarm_helpers import wait_until
@@ -31,14 +31,18 @@ def record(agent_id: int, x: float, y: float, step: int = 0) -> bytes:
 
 
 @contextlib.contextmanager
-def python_relay(endpoint: str):
-    router = zenoh.open(router_config([endpoint]))
-    relay = StateRelay(router, RUN)
+def host_relay(endpoint: str):
+    router = RouterProcess(None, router_config_dict([endpoint]))
+    launcher = zenoh.open(client_config([endpoint]))
     try:
+        relay = HostRelay(launcher, RUN, endpoint)
+        assert relay.key == f"{keys.PREFIX}/{RUN}/relay/{router.zid}"
         yield relay
-    finally:
         relay.close()
+    finally:
+        launcher.close()
         router.close()
+        assert router.proc.returncode == 0  # it closed when its stdin did
 
 
 @contextlib.contextmanager
@@ -52,7 +56,7 @@ def compiled_relay(endpoint: str):
 
 
 @pytest.mark.swarm
-@pytest.mark.parametrize("make_relay", [python_relay, compiled_relay], ids=["python", "compiled"])
+@pytest.mark.parametrize("make_relay", [host_relay, compiled_relay], ids=["host", "embedded"])
 def test_the_relay_puts_each_record_of_its_agents_on_its_cell_and_drops_the_rest(make_relay):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     heard: list[tuple[str, bytes]] = []
@@ -97,6 +101,43 @@ def test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_c
     assert leftovers == []  # its configuration (it names the users file, holds the rules) is removed
 
 
+@pytest.mark.swarm
+def test_a_host_router_answers_only_its_own_clients_runs_and_a_plain_router_is_named():
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with host_relay(endpoint) as relay:
+        relay.add(1, 0.5)  # its run is known once one of its agents is added
+        assert relay._ask("rejected") == "rejected length=0 version=0 value=0 id=0 key=0"
+        assert relay._ask("delete 3").startswith("error unknown request")
+        other = HostRelay(relay.session, "other-run", endpoint)
+        assert other._ask("rejected") == "error run other-run: no agent of it is relayed here"
+        # a request on a wildcard key (any run, any router) is answered by no relay
+        replies = list(relay.session.get(f"{keys.PREFIX}/*/relay/*", payload="add 2 0.5", timeout=2))
+        assert [r.err.payload.to_string() for r in replies if r.err] and not [r for r in replies if r.ok]
+    plain_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    plain = zenoh.open(_plain_router_config(plain_endpoint))  # a Zenoh router that is not fluidswarm's
+    launcher = zenoh.open(client_config([plain_endpoint]))
+    try:
+        from swarmhost import relay as relay_module
+
+        relay_module.REQUEST_TIMEOUT, timeout = 1.0, relay_module.REQUEST_TIMEOUT
+        try:
+            with pytest.raises(RouterFailed, match="does not relay states.*fluidswarm router"):
+                HostRelay(launcher, RUN, plain_endpoint).add(0, 0.5)
+        finally:
+            relay_module.REQUEST_TIMEOUT = timeout
+    finally:
+        launcher.close()
+        plain.close()
+
+
+def _plain_router_config(endpoint: str) -> zenoh.Config:
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", f'["{endpoint}"]')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    return conf
+
+
 def test_a_router_that_never_says_ready_is_killed_and_named(tmp_path, monkeypatch):
     from swarmhost import router_process
 
@@ -124,3 +165,17 @@ def test_the_relays_peek_rejects_what_decode_state_rejects_for_the_header_and_po
     for reason, data in bad.items():
         assert peek_id_position(data) == (None, reason)
         assert decode_state(data) == (None, reason)
+
+
+def test_a_tls_link_is_refused_in_one_line_naming_the_upstream_bug_and_quic_needs_certificates(capsys):
+    from fluidswarm.cli import main
+
+    for argv, said in (
+        (["router", "--listen", "tls/127.0.0.1:7448"], "eclipse-zenoh/zenoh#2557"),
+        (["router", "--connect", "tls/10.0.0.1:7448"], "use quic/HOST:PORT"),
+        (["router", "--listen", "quic/127.0.0.1:7448"], "quic/ endpoints need --tls-ca"),
+        (["router", "--listen", "udp/127.0.0.1:7448"], "expected tcp/HOST:PORT or quic/HOST:PORT"),
+    ):
+        assert main(argv) == 1
+        err = capsys.readouterr().err
+        assert said in err and err.count("\n") == 1 and "Traceback" not in err

@@ -158,14 +158,17 @@ SMALL = [p for p in SCENARIOS if load_scenario(p).agents <= CI_MAX_AGENTS]
 # `make test` runs one scenario of each kind of run: a hand imitation, a body pose, a gesture sequence, lockstep
 # faults (timed), async faults, the two physics experiments with their own figures. The other small scenarios go
 # through the same code with other photographs and criteria: marked `every_scenario`, run by `make scenarios`
-# (all of them, ~5 min more), which keeps `make test` inside its 10 minutes.
+# (all of them, ~5 min more), which keeps `make test` inside its 10 minutes. One lockstep fault scenario:
+# hand_failures_freeze_drop injects freeze, drop, kill_coordinator and late_join; the SIGKILL injection is
+# hand_failures_kill20_async's and test_run_options_inject_failures_in_async_mode's (the same injection code in
+# both modes), lockstep agents surviving SIGKILL tests/test_agents.py's and the core's lost_neighbour.json;
+# branching_failures (kill + freeze + drop on the branching experiment, ~35 s alone) is `make scenarios`'.
 CORE = {
     "hand_scissor_v",
     "body_arms_sideways",
     "sequence_scissor_hook",
     "hand_failures_freeze_drop",
     "hand_failures_kill20_async",
-    "branching_failures",
     "branching_stiffness",
     "viscosity_drag",
 }

@@ -410,7 +410,7 @@ RIGHTS = {
     ],
     "launcher": [
         ("put", keys.ctl_key(RUN, "stop"), True),
-        ("put", keys.cell_key(RUN, 1, -2), True),
+        ("put", keys.cell_key(RUN, 1, -2), False),  # only the routers' relays put on cells
         ("put", keys.state_key(RUN, 5), False),
         ("put", keys.cell_key(RUN, 1, -2) + "/x", False),
         ("put", keys.command_key(RUN), False),
@@ -422,18 +422,24 @@ RIGHTS = {
 @pytest.mark.swarm
 def test_the_routers_rules_let_each_role_do_its_part_and_nothing_else(tmp_path):
     from agent.protocol.access import UsersFile
-    from agent.protocol.session import router_config
+    from agent.protocol.session import router_config_dict
     from swarmhost.router_host import free_port
+    from swarmhost.router_process import RouterProcess
 
     key = RunKey()
     creds = key.users(8)
     users = UsersFile(creds)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(router_config([endpoint], dictionary_file=users.path, acl=acl_config([c.user for c in creds])))
+    process = RouterProcess(
+        None, router_config_dict([endpoint], dictionary_file=users.path, acl=acl_config([c.user for c in creds]))
+    )
     users.remove()
+    # What passed the router's ingress rules: an observer with the `router` role, which no rule limits
+    router = zenoh.open(client_config([endpoint], *astuple(key.credential("router"))))
     got, tokens, held = [], [], []
     router.declare_subscriber("fluidswarm/**", lambda s: got.append(str(s.key_expr)))
     router.liveliness().declare_subscriber("fluidswarm/**", lambda s: tokens.append(str(s.key_expr)))
+    time.sleep(0.3)  # the observer's subscriptions reach the router before anything is put
     sessions = {u: zenoh.open(client_config([endpoint], *astuple(key.credential(u)))) for u in RIGHTS}
     wrong = []
     try:
@@ -451,8 +457,16 @@ def test_the_routers_rules_let_each_role_do_its_part_and_nothing_else(tmp_path):
                     time.sleep(0.01)
                 if bool(got or tokens) != passes:
                     wrong.append((user, what, k, passes))
+        # A host router's relay takes requests from launchers only (another role adding an agent to relay
+        # would have its states relayed twice, or forged ones vouched for)
+        relay_key = f"{keys.PREFIX}/{RUN}/relay/{process.zid}"
+        for user in RIGHTS:
+            replies = list(sessions[user].get(relay_key, payload="add 5 0.5", timeout=1))
+            if any(r.ok is not None for r in replies) != (user == "launcher"):
+                wrong.append((user, "query", relay_key, user == "launcher"))
     finally:
         for s in sessions.values():
             s.close()
         router.close()
+        process.close()
     assert not wrong, wrong

@@ -193,7 +193,8 @@ class LaunchAccess:
         self.capacity = capacity
         # Routers that enforce per-process rights (our embedded one at level acl; multi-host routers given a
         # users file) let an agent publish states only under its own id: agents put them on state/<id>, the
-        # relay puts them on the cell keys (swarmhost/router_process.py, swarmhost/relay.py).
+        # relay inside the router puts them on the cell keys (agent/native/src/relay.rs: the embedded router's,
+        # or a host router's in a multi-host run).
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod

@@ -23,7 +23,7 @@ _AGENT_RE = re.compile(r"^agent-(0|[1-9][0-9]{0,9})$")
 _ANY_RUN = f"{keys.PREFIX}/*"
 _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
-_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator")
+_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator", "relay")
 
 
 def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
@@ -69,13 +69,13 @@ def acl_config(users: list[str]) -> dict:
         _deny("no-admin", ["put", "query", "liveliness_token"], _ADMIN),
         # agents
         _deny("agent-never", ["liveliness_query"], _EVERYTHING),
+        # a host router's relay requests (relay/<zid>: add an agent to relay) are the launchers' only
+        _deny("agent-query", ["query"], [f"{_ANY_RUN}/relay/**"]),
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
-        # launcher (a client of its router: at acl, and multi-host): ctl, and its relay's puts on cell keys
-        # (swarmhost/relay.py; the compiled router's relay is the router itself), never an agent's id key
-        _deny(
-            "launcher-put", ["put"], _kinds_but("ctl", "state") + [f"{_ANY_RUN}/state/*", f"{_ANY_RUN}/state/*/*/*/**"]
-        ),
+        # launcher (a client of its router): ctl only; the relay that puts on the cell keys is inside the
+        # routers (agent/native/src/relay.rs), so no state key at all, an agent's or a cell's
+        _deny("launcher-put", ["put"], _kinds_but("ctl")),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator
         _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
@@ -112,7 +112,7 @@ def acl_config(users: list[str]) -> dict:
         policies.append(
             {
                 "id": f"agent-{i}",
-                "rules": ["never", "no-admin", "agent-never", "agent-put", "agent-token"] + bits,
+                "rules": ["never", "no-admin", "agent-never", "agent-query", "agent-put", "agent-token"] + bits,
                 "subjects": [f"agent-{i}"],
             }
         )

@@ -48,8 +48,8 @@ def router_settings(
     acl: dict | None = None,
     tls: TlsFiles | None = None,
 ) -> dict[str, object]:
-    """A router's settings (config path -> value), for zenoh-python's in-process router (router_config) and for
-    the compiled one (swarmhost/router_process.py writes them as a JSON file: router_config_dict).
+    """A router's settings (config path -> value) for the compiled router (swarmhost/router_process.py writes
+    them as a JSON file: router_config_dict).
 
     `dictionary_file`: usrpwd users (`user:password` lines), required of every session; `acl`: Zenoh's
     `access_control` section (agent/protocol/access.py: acl_config); `user`/`password`: this router's own
@@ -74,14 +74,6 @@ def router_settings(
     if tls is not None:
         settings.update(tls.settings())
     return settings
-
-
-def router_config(*args, **kwargs) -> zenoh.Config:
-    """An in-process router (mode "router"): no external daemon needed (arguments: router_settings)."""
-    conf = zenoh.Config()
-    for path, value in router_settings(*args, **kwargs).items():
-        conf.insert_json5(path, json.dumps(value))
-    return conf
 
 
 def router_config_dict(*args, **kwargs) -> dict:

@@ -1,5 +1,7 @@
-//! The state relay under per-process rights, on the router's own session (the `fluidswarm-router` program;
-//! the Python twin for a launcher that is a client of another host's router is swarmhost/relay.py).
+//! The state relay under per-process rights, on the router's own session (the `fluidswarm-router` program):
+//! a launcher's embedded router relays its run (asked over the router's stdin), a host's router (`fluidswarm
+//! router`, multi-host) the agents each of its host's launchers registers, for any run (asked over Zenoh:
+//! `HostRelays`).
 //!
 //! At access level `acl` an agent puts its state on its own id key, `state/<id>`, which the router's access
 //! control lets no other process use, and hears states on the cell keys, `state/<cx>/<cy>`, which no agent
@@ -113,6 +115,37 @@ impl RelayTable {
     }
 }
 
+/// The answer to one request line of the relay's protocol (docs/protocol.md, router_main.rs), for the run of
+/// `table`: `add <id> <h>` → `ok` | `error <why>`; `rejected` → `rejected length=<n> …`.
+pub fn answer(table: &RelayTable, line: &str) -> String {
+    match line.split_whitespace().collect::<Vec<_>>().as_slice() {
+        ["add", id, h] => match (id.parse::<u32>(), h.parse::<f64>()) {
+            (Ok(id), Ok(h)) => table.add(id, h).map(|_| "ok".to_string()).unwrap_or_else(|e| format!("error {e}")),
+            _ => format!("error add: expected an agent id (0..{}) and a smoothing length", keys::MAX_AGENTS - 1),
+        },
+        ["rejected"] => format!("rejected {}", table.rejected_line()),
+        _ => format!("error unknown request {line:?} (add <id> <h> | rejected)"),
+    }
+}
+
+/// Runs one host's router relays at once, at most (a table and a subscriber each, kept until the router
+/// closes: a run's agents may be added until its last late joiner).
+pub const MAX_RUNS: usize = 256;
+
+/// The key of a host router's relay requests: `fluidswarm/<run>/relay/<the router's zid>`. The zid makes a
+/// launcher's request reach its own host's router only (a launcher is a client of exactly one router).
+pub fn host_relay_key(run: &str, zid: &str) -> String {
+    format!("{}/{run}/relay/{zid}", keys::PREFIX)
+}
+
+/// The run a host relay request's key names, if it is exactly `fluidswarm/<run>/relay/<zid>` with a valid
+/// run name (the key comes from the network: a wildcard or a malformed run names none).
+pub fn host_relay_run<'a>(key: &'a str, zid: &str) -> Option<&'a str> {
+    let rest = key.strip_prefix(keys::PREFIX)?.strip_prefix('/')?;
+    let (run, tail) = rest.split_once('/')?;
+    (tail.strip_prefix("relay/") == Some(zid) && keys::valid_run_name(run)).then_some(run)
+}
+
 /// The relay on `session`: one subscriber on every id key of the run, whose callback routes and puts each
 /// state on zenoh's receiving thread (no hand-over: the put is routed right there, as the router forwards
 /// any message).
@@ -156,9 +189,85 @@ impl StateRelay {
     }
 }
 
+/// A host's router relays (`fluidswarm-router --host`): a queryable on `fluidswarm/*/relay/<zid>` takes the
+/// requests of `answer` from this host's launchers, and the first `add` of a run starts that run's relay.
+#[cfg(feature = "net")]
+pub struct HostRelays {
+    _queryable: zenoh::query::Queryable<()>,
+}
+
+#[cfg(feature = "net")]
+impl HostRelays {
+    pub fn start(session: &Session) -> zenoh::Result<HostRelays> {
+        type Runs = HashMap<String, (std::sync::Arc<RelayTable>, StateRelay)>;
+        let zid = session.zid().to_string();
+        let runs: Mutex<Runs> = Mutex::default();
+        let own = session.clone();
+        let expr = format!("{}/*/relay/{zid}", keys::PREFIX);
+        let queryable = session
+            .declare_queryable(expr)
+            .callback(move |query: zenoh::query::Query| {
+                let key = query.key_expr().clone();
+                let line = query.payload().and_then(|p| p.try_to_string().ok().map(|s| s.to_string()));
+                let reply = match (host_relay_run(key.as_str(), &zid), line) {
+                    (None, _) => Err(format!("{key}: not a relay key of this router")),
+                    (Some(_), None) => Err("a request is one line of UTF-8".to_string()),
+                    (Some(run), Some(line)) => {
+                        let mut runs = runs.lock().expect("runs lock");
+                        if !runs.contains_key(run) && runs.len() >= MAX_RUNS {
+                            Err(format!("this router already relays {MAX_RUNS} runs"))
+                        } else if !runs.contains_key(run) && !line.starts_with("add ") {
+                            Err(format!("run {run}: no agent of it is relayed here"))
+                        } else {
+                            if !runs.contains_key(run) {
+                                let table = std::sync::Arc::new(RelayTable::new(run));
+                                match StateRelay::start(&own, table.clone()) {
+                                    Ok(relay) => {
+                                        runs.insert(run.to_string(), (table, relay));
+                                    }
+                                    Err(e) => return drop(query.reply_err(format!("relay: {e}")).wait()),
+                                }
+                            }
+                            Ok(answer(&runs[run].0, &line))
+                        }
+                    }
+                };
+                let _ = match reply {
+                    Ok(text) => query.reply(key, text).wait(),
+                    Err(why) => query.reply_err(format!("error {why}")).wait(),
+                };
+            })
+            .wait()?;
+        Ok(HostRelays { _queryable: queryable })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn requests_are_answered_in_one_line() {
+        let t = RelayTable::new("r");
+        assert_eq!(answer(&t, "add 3 0.5"), "ok");
+        assert!(answer(&t, "add 3 0.25").starts_with("error agent 3: smoothing length 0.25 differs"));
+        assert!(answer(&t, "add x 0.5").starts_with("error add: expected"));
+        assert!(answer(&t, "add 9000 0.5").starts_with("error agent id 9000"));
+        assert_eq!(answer(&t, "rejected"), "rejected length=0 version=0 value=0 id=0 key=0");
+        assert!(answer(&t, "delete 3").starts_with("error unknown request"));
+    }
+
+    #[test]
+    fn a_host_relay_key_names_one_valid_run_of_this_router() {
+        let key = host_relay_key("run-1", "abc");
+        assert_eq!(key, "fluidswarm/run-1/relay/abc");
+        assert_eq!(host_relay_run(&key, "abc"), Some("run-1"));
+        assert_eq!(host_relay_run(&key, "abd"), None); // another router's
+        assert_eq!(host_relay_run("fluidswarm/*/relay/abc", "abc"), None);
+        assert_eq!(host_relay_run("fluidswarm/**/relay/abc", "abc"), None);
+        assert_eq!(host_relay_run("fluidswarm/r/relay/abc/x", "abc"), None);
+        assert_eq!(host_relay_run("other/r/relay/abc", "abc"), None);
+    }
 
     fn record(id: u32, x: f64, y: f64) -> Vec<u8> {
         let mut s = [0.0; crate::sph::NFIELDS];

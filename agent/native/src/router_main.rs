@@ -1,22 +1,27 @@
-//! `fluidswarm-router RUN`: a run's embedded router at access level `acl`, the state relay on its own session
-//! (swarmhost/router_process.py starts it; docs/protocol.md, docs/security.md).
+//! The compiled Zenoh router of fluidswarm, with the state relay on its own session (docs/protocol.md,
+//! docs/security.md, docs/multi-host.md); swarmhost/router_process.py starts it.
 //!
-//! Its Zenoh configuration (listen endpoints, the users file, the access-control rules) is a JSON file named
-//! by FLUIDSWARM_ROUTER_CONFIG, written privately by the launcher: never on the command line. The launcher
-//! talks to it over its stdin and stdout, one line each way:
+//!     fluidswarm-router RUN     a launcher's embedded router: relays the agents of RUN its launcher adds
+//!     fluidswarm-router --host  a host's router (`fluidswarm router`, multi-host): relays, for any run, the
+//!                               agents each launcher of its host adds over Zenoh (relay.rs HostRelays)
 //!
-//!     (first line out)  ready               the router listens
+//! Its Zenoh configuration (endpoints, the users file, the access-control rules, TLS) is a JSON file named by
+//! FLUIDSWARM_ROUTER_CONFIG, written privately by its starter: never on the command line. The starter talks to
+//! it over its stdin and stdout, one line each way (in --host mode the launchers ask over Zenoh instead, the
+//! same requests on `fluidswarm/<run>/relay/<zid>`):
+//!
+//!     (first line out)  ready zid=<zid>     the router listens; its Zenoh id
 //!     add <id> <h>      ok | error <why>    relay agent <id>'s states on cells of side <h> (before it starts)
 //!     rejected          rejected length=<n> version=<n> value=<n> id=<n> key=<n>
 //!
-//! The end of stdin (the launcher closed it, or died) closes the router. Exit codes: 0 closed, 2 bad
+//! The end of stdin (the starter closed it, or died) closes the router. Exit codes: 0 closed, 2 bad
 //! configuration or arguments (one line on stderr).
 
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 
 use fluidswarm_agent::keys;
-use fluidswarm_agent::relay::{RelayTable, StateRelay};
+use fluidswarm_agent::relay::{self, HostRelays, RelayTable, StateRelay};
 use zenoh::Wait;
 
 const CONFIG_ENV: &str = "FLUIDSWARM_ROUTER_CONFIG";
@@ -35,29 +40,32 @@ fn main() {
     unsafe { libc::signal(libc::SIGINT, libc::SIG_IGN) };
     let args: Vec<String> = std::env::args().skip(1).collect();
     let run = match args.as_slice() {
-        [run] if keys::valid_run_name(run) => run.clone(),
-        _ => fail("usage: fluidswarm-router RUN (a run name: 1-64 letters, digits, '-' or '_'), configuration in $FLUIDSWARM_ROUTER_CONFIG"),
+        [host] if host == "--host" => None,
+        [run] if keys::valid_run_name(run) => Some(run.clone()),
+        _ => fail("usage: fluidswarm-router RUN | --host (a run name: 1-64 letters, digits, '-' or '_'), configuration in $FLUIDSWARM_ROUTER_CONFIG"),
     };
     let path = std::env::var(CONFIG_ENV).unwrap_or_else(|_| fail(&format!("{CONFIG_ENV} is not set")));
     let config = zenoh::Config::from_file(&path).unwrap_or_else(|e| fail(&format!("{CONFIG_ENV} {path}: {e}")));
     let session = zenoh::open(config).wait().unwrap_or_else(|e| fail(&format!("cannot open the router: {e}")));
-    let table = Arc::new(RelayTable::new(&run));
-    let relay = StateRelay::start(&session, table.clone()).unwrap_or_else(|e| fail(&format!("relay: {e}")));
+    // One relay table for the embedded router's run; a host's router makes one per run on request.
+    let table = run.as_deref().map(|run| Arc::new(RelayTable::new(run)));
+    let relay = table.as_ref().map(|t| StateRelay::start(&session, t.clone()));
+    let relay = relay.transpose().unwrap_or_else(|e| fail(&format!("relay: {e}")));
+    let host = if run.is_none() {
+        Some(HostRelays::start(&session).unwrap_or_else(|e| fail(&format!("relay: {e}"))))
+    } else {
+        None
+    };
     let mut out = std::io::stdout().lock();
     let say = |out: &mut std::io::StdoutLock, line: &str| writeln!(out, "{line}").and_then(|_| out.flush()).is_ok();
-    if !say(&mut out, "ready") {
+    if !say(&mut out, &format!("ready zid={}", session.zid())) {
         std::process::exit(0);
     }
     for line in std::io::stdin().lock().lines() {
         let Ok(line) = line else { break };
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let reply = match words.as_slice() {
-            ["add", id, h] => match (id.parse::<u32>(), h.parse::<f64>()) {
-                (Ok(id), Ok(h)) => table.add(id, h).map(|_| "ok".to_string()).unwrap_or_else(|e| format!("error {e}")),
-                _ => format!("error add: expected an agent id (0..{}) and a smoothing length", keys::MAX_AGENTS - 1),
-            },
-            ["rejected"] => format!("rejected {}", table.rejected_line()),
-            _ => format!("error unknown request {line:?} (add <id> <h> | rejected)"),
+        let reply = match &table {
+            Some(table) => relay::answer(table, &line),
+            None => "error a host's router takes its requests over Zenoh (fluidswarm/<run>/relay/<zid>)".to_string(),
         };
         if !say(&mut out, &reply) {
             break;
@@ -66,6 +74,6 @@ fn main() {
     // A last resort if closing hangs: SIGALRM's default action ends the process 5 s later regardless.
     // SAFETY: alarm with an integer argument.
     unsafe { libc::alarm(5) };
-    drop(relay);
+    drop((relay, host));
     let _ = session.close().wait();
 }
