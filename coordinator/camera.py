@@ -12,9 +12,11 @@ changed and held for `label_hold` observations, or the silhouette changed beyond
 the last commanded one, or the tracked box moving or resizing, no sooner than `min_seconds` after the last
 command) -- not every frame.
 
-The first command's observation is written to `first.npz` (and every command's to `latest.npz`) in the
-folder the launcher gives (`--observations DIR`), so it can place the swarm and score the formation; what
-happened goes to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
+The first command's imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up
+and the command) is handed to the launcher (`hand_over`, coordinator/handover.py), which places the swarm
+from it; every command's observation is written to `latest.npz` in the folder the launcher gives
+(`--observations DIR`), which it reads once the run has ended to score the formation; what happened goes
+to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
 chosen, each command (seq, gesture, why), each time the subject was not found (what, said once until it
 was found again or the reason changed) and the end of a video file. A video file ends normally at its
 last frame; a device or URL that ends or stalls is a StreamError.
@@ -29,13 +31,14 @@ import re
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from coordinator.control.fill import ShapeError
-from coordinator.control.imitation_setup import build_command, transform_for
+from coordinator.control.imitation_setup import Imitation, build_command, imitation_for
 from coordinator.control.observe import Observation, observe
 from perception.segmentation import SegmentationError
 from perception.stream import FrameStream, StreamEnded, StreamError
@@ -193,7 +196,7 @@ class CommandSwitch:
 
 
 def save_observation(path: Path, obs: Observation) -> None:
-    """Written whole or not at all (the launcher polls for it)."""
+    """Written whole or not at all (replaced at every command while the run goes on)."""
     tmp = path.with_suffix(".tmp.npz")
     parts = {k: obs.parts[k] for k in PARTS if k in obs.parts}
     assert obs.frame is not None  # a camera's observation carries its picture (load_observation reads it)
@@ -220,9 +223,11 @@ def run_camera(
     rule: ChangeRule = ChangeRule(),
     subject: str = "person",
     started: threading.Event | None = None,
+    hand_over: Callable[[Imitation], None] | None = None,
 ) -> None:
     """Observe `source` until `stop` or the end of a video file, publishing signed commands on `pub`
     (republished every `period` s by a side thread, so late joiners get one while a frame is being read).
+    The first command's imitation goes to `hand_over` (its HandoverFailed is raised: the launcher is gone).
     A video file is held after its first command until `started` (the swarm runs), so that what it shows
     is seen by the swarm as it was recorded, however long the swarm took to start (at most
     HOLD_SECONDS). Raises StreamError (a file that ends before anything was commanded, too)."""
@@ -244,6 +249,7 @@ def run_camera(
             subject,
             log,
             started,
+            hand_over,
         )
     except StreamEnded as exc:
         if not getattr(exc, "is_file", False):
@@ -257,7 +263,20 @@ def run_camera(
 
 
 def _observe_stream(
-    source, stream_params, n_agents, controller, secret, pub, stop, period, observations, rule, subject, log, started
+    source,
+    stream_params,
+    n_agents,
+    controller,
+    secret,
+    pub,
+    stop,
+    period,
+    observations,
+    rule,
+    subject,
+    log,
+    started,
+    hand_over,
 ) -> None:
     current: list[bytes] = []
 
@@ -305,13 +324,19 @@ def _observe_stream(
             why = switch.update(obs, now)
             if why is None:
                 continue
-            t = transform or transform_for(obs.mask, n_agents, controller)
-            try:
-                cmd = build_command(obs, t, n_agents, controller, seq=seq + 1)
+            first_im = None
+            try:  # the first observation fixes the image -> domain map and the swarm's start
+                if transform is None:
+                    first_im = imitation_for([obs], n_agents, controller)
+                    cmd = first_im.command
+                else:
+                    cmd = build_command(obs, transform, n_agents, controller, seq=seq + 1)
             except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take (too small, too thin): wait
                 log.missing(f"no shape the swarm can take: {exc}")
                 continue
-            transform, seq = t, seq + 1
+            if first_im is not None:
+                transform = first_im.transform
+            seq += 1
             switch.commit(obs, now)
             payload = cmd.encode(secret)
             current.append(payload)
@@ -319,9 +344,9 @@ def _observe_stream(
             pub.put(payload)
             log.write("command", seq=seq, gesture=obs.label, why=why)
             if observations is not None:
-                if seq == 1:
-                    save_observation(observations / "first.npz", obs)
                 save_observation(observations / "latest.npz", obs)
+            if first_im is not None and hand_over is not None:
+                hand_over(first_im)
             if seq == 1 and started is not None and stream.is_file:
                 stream.hold()
                 started.wait(HOLD_SECONDS)

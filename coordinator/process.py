@@ -1,9 +1,12 @@
 """The coordinator process: observe, recognise, broadcast the signed gesture command. Nothing else.
 
-It declares one publisher (the command key) and one liveliness token, and never subscribes to agent
-states. It republishes the current command every `period` s so an agent that starts late has it within
-one period, and publishes a new command (next sequence number) when the observed gesture changes
-between frames (thesis ch. 5, gesture sequences).
+It is the one process that perceives: it observes the input (a file, or a camera as frames come), builds
+the imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up and the commands)
+and, with `--handover FD`, hands it once to the process that launched it (coordinator/handover.py), which
+places the swarm, records and scores. It declares one publisher (the command key) and one liveliness
+token, and never subscribes to agent states. It republishes the current command every `period` s so an
+agent that starts late has it within one period, and publishes a new command (next sequence number) when
+the observed gesture changes between frames (thesis ch. 5, gesture sequences).
 
 `python -m coordinator --connect tcp/HOST:PORT --run NAME --input IMAGE|FOLDER|VIDEO --agents N`
 with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET. With `--camera DEVICE|URL|FILE`
@@ -14,7 +17,7 @@ frame (exit 0), a device or URL until it ends or stalls (then a one-line error, 
 from __future__ import annotations
 
 import argparse
-import json
+import functools
 import os
 import sys
 import threading
@@ -24,48 +27,16 @@ from pathlib import Path
 import zenoh
 
 from agent.protocol import keys
-from agent.protocol.command import GestureCommand, parse_body
 from agent.protocol.ctl import Clock, decode_ctl
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
+from coordinator import handover
 from coordinator.camera import run_camera
-from coordinator.control.imitation_setup import (
-    CONTROLLERS,
-    DEFAULT_CONTROLLER,
-    build_command,
-    observations_for,
-    transform_for,
-)
+from coordinator.control.fill import ShapeError
+from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER, imitation_of_input
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from perception.stream import StreamError, StreamParams
-
-
-def commands_for_frames(path, n_agents: int, controller: str = "fill", frame: int | None = None):
-    """One command per recognised gesture along the frames: a new one (next sequence number) whenever the
-    recognised gesture (the command's `gesture`) changes between consecutive frames. With `frame`, only that
-    frame. The image -> domain transform is fixed by the first frame shown (so is the imitate target's)."""
-    return [c for _k, c in frame_commands(path, n_agents, controller, frame)]
-
-
-def frame_commands(path, n_agents: int, controller: str = "fill", frame: int | None = None):
-    """[(index of the first frame it holds for, command)] along the frames shown (see commands_for_frames)."""
-    _frames, obs, k = observations_for(path, frame)
-    shown = [obs[k]] if frame is not None else obs
-    return commands_along(shown, transform_for(shown[0].mask, n_agents, controller), n_agents, controller)
-
-
-def commands_along(shown, transform, n_agents: int, controller: str = "fill"):
-    """[(index of the first observation it holds for, command)]: a new command whenever the recognised
-    gesture changes between consecutive observations `shown`, all in one image -> domain `transform`."""
-    out: list[tuple[int, GestureCommand]] = []
-    last = None
-    for i, o in enumerate(shown):
-        cmd = build_command(o, transform, n_agents, controller, seq=len(out) + 1)
-        if cmd.gesture != last:
-            out.append((i, cmd))
-            last = cmd.gesture
-    return out
 
 
 class SwarmClock:
@@ -92,11 +63,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--connect", required=True)
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", help="image, folder of frames, or video")
-    ap.add_argument(
-        "--commands",
-        help='JSON file [{"first": FRAME, "body": COMMAND BODY}, ...]: commands '
-        "built by the launching process from its own observation (no second perception)",
-    )
     ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
     ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
     ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
@@ -106,10 +72,18 @@ def main(argv: list[str] | None = None) -> int:
         choices=["hand", "person", "auto"],
         help="camera: what it watches (auto: decided from the first frames)",
     )
-    ap.add_argument("--observations", help="camera: folder for first.npz / latest.npz (the launcher reads them)")
+    ap.add_argument(
+        "--observations", help="camera: folder for latest.npz and events.jsonl (the launcher reads them at the end)"
+    )
+    ap.add_argument(
+        "--handover",
+        type=int,
+        default=None,
+        help="FD: a pipe to write the imitation on, once (coordinator/handover.py; the launching process reads it)",
+    )
     ap.add_argument("--agents", type=int, required=True)
     ap.add_argument("--controller", default=DEFAULT_CONTROLLER, choices=CONTROLLERS)
-    ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder")
+    ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder (default: all)")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
     ap.add_argument("--frame-seconds", type=float, default=5.0, help="s each frame of a sequence is shown")
     ap.add_argument(
@@ -139,24 +113,25 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    if sum(bool(a) for a in (args.input, args.camera, args.commands)) != 1:
-        print("fluidswarm coordinator: error: give --input, --camera or --commands (one of them)", file=sys.stderr)
+    if (args.input is None) == (args.camera is None):
+        print("fluidswarm coordinator: error: give --input or --camera (one of them)", file=sys.stderr)
         return 2
     if args.camera:
         return _camera(args, secret)
 
     try:
-        commands = (
-            _load_commands(args.commands)
-            if args.commands
-            else frame_commands(args.input, args.agents, args.controller, args.frame)
-        )
-    except (InputError, SegmentationError) as exc:
-        print(f"fluidswarm coordinator: error: {args.input}: {exc}", file=sys.stderr)
+        im = imitation_of_input(args.input, args.agents, args.controller, args.frame)
+    except (InputError, SegmentationError, ShapeError) as exc:
+        problem = str(exc) if str(args.input) in str(exc) else f"{args.input}: {exc}"
+        print(f"fluidswarm coordinator: error: {problem}", file=sys.stderr)
         return 1
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        print(f"fluidswarm coordinator: error: --commands {args.commands}: {exc}", file=sys.stderr)
-        return 1
+    if args.handover is not None:
+        try:
+            handover.send(args.handover, im)
+        except handover.HandoverFailed as exc:
+            print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
+            return 1
+    commands = im.commands
     with _command_channel(args) as (session, pub, stop):
         clock = None
         if args.frame_steps:
@@ -172,21 +147,6 @@ def main(argv: list[str] | None = None) -> int:
             tick += 1
             stop.wait(args.period)
     return 0
-
-
-def write_commands(path, commands) -> None:
-    """[(first frame, GestureCommand)] as the JSON file `--commands` reads."""
-    with open(path, "w") as f:
-        json.dump([{"first": int(first), "body": c.body()} for first, c in commands], f)
-
-
-def _load_commands(path):
-    """The file `write_commands` wrote, each body validated as the agents validate a command."""
-    with open(path) as f:
-        items = json.load(f)
-    if not isinstance(items, list) or not items or items[0]["first"] != 0:
-        raise ValueError("expected a non-empty list whose first command holds from frame 0")
-    return [(int(item["first"]), parse_body(item["body"])) for item in items]
 
 
 @contextmanager
@@ -231,8 +191,9 @@ def _camera(args, secret: bytes) -> int:
                 observations,
                 subject=args.subject,
                 started=clock.started,
+                hand_over=None if args.handover is None else functools.partial(handover.send, args.handover),
             )
-    except StreamError as exc:
+    except (StreamError, handover.HandoverFailed) as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 1
     return 0

@@ -18,10 +18,11 @@ from collections.abc import Set as AbstractSet
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
+from agent.protocol.errors import UserError
 from fluidswarm.run import json_finite
 
 
-class BenchRecordError(ValueError):
+class BenchRecordError(UserError, ValueError):
     """A results file or record that is not a BenchRecord; the message names the key and the problem."""
 
 

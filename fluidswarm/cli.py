@@ -1,8 +1,9 @@
 """The `fluidswarm` console command.
 
 Each subcommand lives next to the code it drives and exposes `register(subparsers)`; this module only
-collects them, so teams can add commands without touching one another's files. Errors the user can fix
-are raised as `UserError` and printed as one line (exit 1); argparse usage errors exit 2.
+collects them, so teams can add commands without touching one another's files. The project's errors
+(agent/protocol/errors.py `FluidswarmError`: `UserError` for what the user can fix, `SwarmError` for a run's
+processes) are printed as one line (exit 1); argparse usage errors exit 2.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import signal
 import sys
 from typing import NoReturn
 
-from agent.protocol.errors import UserError
+from agent.protocol.errors import FluidswarmError
 
 # Modules that contribute subcommands, in the order they appear in `--help`.
 COMMAND_MODULES = (
@@ -60,10 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except UserError as exc:
-        print(f"fluidswarm {args.command}: error: {exc}", file=sys.stderr)
+    except FluidswarmError as exc:  # every kind: its one line (agent/protocol/errors.py)
+        print(f"fluidswarm {args.command}: error: {exc.what}{exc}", file=sys.stderr)
         return 1
-    except (TimeoutError, RuntimeError) as exc:  # the swarm did not start or finish in time (launcher)
+    except (TimeoutError, RuntimeError) as exc:  # a library's, or a process not yet given a kind of its own
         print(f"fluidswarm {args.command}: error: swarm: {exc}", file=sys.stderr)
         return 1
     except BrokenPipeError:  # output piped into `head` and closed early

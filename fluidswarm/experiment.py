@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from agent.protocol.errors import UserError
+from agent.protocol.spec import SyncMode
 from agent.sph.setups import branch_gap
 from fluidswarm.run import Run, SwarmPlan, Sync
 from fluidswarm.scenario import Scenario
@@ -39,7 +40,7 @@ def experiment_setup(sc: Scenario, agents: int):
 
 
 def scenario_sync(sc: Scenario) -> Sync:
-    return Sync(sc.sync, sc.async_rate, sc.async_max_age)
+    return Sync(SyncMode(sc.sync), sc.async_rate, sc.async_max_age)
 
 
 @dataclass

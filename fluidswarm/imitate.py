@@ -1,9 +1,10 @@
 """Imitation runs of a file (image, folder of frames, video): one frame, or a gesture sequence.
 
-Perception runs once, here: the observation fixes the transform, the swarm's start and the commands,
-which the coordinator process receives as a file (`--commands`) and signs and broadcasts. The run is a
-`fluidswarm.run.Run`; this module is its `RunKind` (drive: perceive, start the coordinator, record, run
-the swarm with the settle watch; score: fidelity of the final formation, the formation PNG).
+The coordinator process perceives, once: it observes the input, builds the imitation (the swarm's start,
+the transform, the commands: coordinator/control/imitation_setup.py `imitation_for`), hands it to this
+process through a pipe (coordinator/handover.py) and signs and broadcasts the commands. The run is a
+`fluidswarm.run.Run`; this module is its `RunKind` (drive: start the coordinator, take its imitation,
+record, run the swarm with the settle watch; score: fidelity of the final formation, the formation PNG).
 """
 
 from __future__ import annotations
@@ -20,52 +21,43 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
+from coordinator import handover
 from coordinator.control.fidelity import Fidelity
-from coordinator.control.imitation_setup import (
-    DEFAULT_CONTROLLER,
-    DEFAULT_STEPS,
-    Imitation,
-    observations_for,
-    prepare_observation,
-)
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation
 from coordinator.control.settle import SettleRule, SettleWatch
-from coordinator.process import commands_along, write_commands
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
 from swarmhost.supervisor import die_with_parent
 
-
-def perceive(input_path, agents: int, controller: str, frame: int | None, sequence: bool):
-    """(the imitation set-up, [(first frame, command)]) of one frame of the input, or of all its frames.
-
-    A sequence starts as for its first frame; its target (what it is scored against) is the last frame's
-    silhouette in the first frame's image -> domain transform, which the commands keep too."""
-    _frames, obs, k = observations_for(input_path, None if sequence else frame)
-    shown = obs if sequence else [obs[k]]
-    im = prepare_observation(shown[0], agents, controller=controller)
-    commands = commands_along(shown, im.transform, agents, controller)
-    if sequence:
-        im.mask, im.observation = obs[-1].mask, obs[-1]
-    return im, commands
+PERCEIVE_SECONDS = 300.0  # s for the coordinator to perceive a file (a long clip on a loaded 2-core machine)
 
 
-def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
-    """The coordinator process on the run's bus, with the run's command key in its environment."""
+def start_coordinator(run: Run, args: list[str]) -> tuple[subprocess.Popen, int]:
+    """The coordinator process on the run's bus, with the run's command key in its environment, and the read
+    end of the pipe it hands its imitation over on (coordinator/handover.py `receive`)."""
     la = run.launcher
     # the run's command key and the coordinator's credentials (docs/security.md) travel in its environment
     env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
-    cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run] + args
-    proc = subprocess.Popen(
-        cmd,
-        env=env,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
-    )
+    read, write = os.pipe()
+    cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run, "--handover", str(write)]
+    try:
+        proc = subprocess.Popen(
+            cmd + args,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            pass_fds=(write,),
+            preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
+        )
+    except BaseException:
+        os.close(read)
+        raise
+    finally:
+        os.close(write)  # the coordinator's copy is the only writer left: its end is the pipe's end
     run.add_coordinator(proc)
-    return proc
+    return proc, read
 
 
 def write_target(folder: Path, im: Imitation, frame_bgr: np.ndarray) -> tuple[str, str]:
@@ -144,11 +136,22 @@ class FileImitation:
     def drive(self, run: Run) -> None:
         sequence = self.frame_steps > 0
         frame = None if sequence else (0 if self.frame is None else self.frame)
-        im, commands = perceive(self.input_path, self.agents, self.controller, frame, sequence)
+        coord, pipe = start_coordinator(
+            run,
+            ["--input", str(self.input_path), "--agents", str(self.agents), "--controller", self.controller]
+            + ([] if frame is None else ["--frame", str(frame)])
+            + (["--frame-steps", str(self.frame_steps)] if sequence else []),
+        )
+        im = handover.receive(
+            pipe,
+            coord,
+            PERCEIVE_SECONDS,
+            lambda: f"{self.input_path}: the coordinator did not perceive it in {PERCEIVE_SECONDS:.0f} s",
+        )
         if self.sph or self.dt:
             im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
         if self.robot != POINT:
-            try:  # before the recorder, the coordinator and the agents start
+            try:  # before the recorder and the agents start
                 im.setup = im.setup.with_robot(self.robot)
             except ValueError as exc:
                 raise UserError(f"--robot: {exc}") from None
@@ -157,6 +160,7 @@ class FileImitation:
             im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
         self.im = im
         tmp = run.scratch
+        assert im.observation.frame is not None  # observe() keeps the picture of every frame it read
         target, image = write_target(tmp, im, im.observation.frame)
         meta = {
             "scenario": o.name,
@@ -177,12 +181,6 @@ class FileImitation:
             "failures": [getattr(f, "__dict__", str(f)) for f in o.failures],
         }
         run.record_to(meta, im.setup.params.dt, target=target, image=image)
-        write_commands(tmp / "commands.json", commands)
-        start_coordinator(
-            run,
-            ["--commands", str(tmp / "commands.json"), "--agents", str(self.agents), "--controller", self.controller]
-            + (["--frame-steps", str(self.frame_steps)] if sequence else []),
-        )
         self.watch = None
         if self.settle is not None and not sequence:
             # the formation may settle before the failures are due: not before they have all happened

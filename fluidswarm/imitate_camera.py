@@ -1,7 +1,8 @@
 """`fluidswarm imitate --camera DEVICE|URL|FILE`: the swarm follows a person or a hand watched live.
 
-The coordinator process reads the camera (coordinator/camera.py) and says where the subject is first seen
-(`first.npz`); the swarm is placed and the recorder started from that observation, then the agents follow
+The coordinator process reads the camera (coordinator/camera.py) and hands over the imitation of the
+subject's first observation (coordinator/handover.py); the swarm is placed and the recorder started from
+it, then the agents follow
 each new command as the gesture changes, paced to the wall clock (simulated time = wall time, never
 faster; the record's `realtime_factor` says what was reached). The run lasts `steps` steps, or until a
 video file's last frame: then the coordinator exits 0 and the swarm finishes a few steps later, all agents
@@ -21,10 +22,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
+from coordinator import handover
 from coordinator.camera import load_observation
 from coordinator.control.fidelity import fidelity
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, prepare_observation
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
 from fluidswarm.imitate import score_formation, start_coordinator, write_target
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan
 
@@ -34,28 +36,14 @@ END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and th
 
 def _coordinator_error(coord: subprocess.Popen, source: str) -> str:
     """The coordinator's one-line error, without its program prefix."""
-    try:
-        err = coord.stderr.read().decode("utf-8", "replace") if coord.stderr else ""
-    except (OSError, ValueError):
-        err = ""
-    # Its own error line, not whatever a library logged after it (FFmpeg does, closing a network stream).
-    lines = [line for line in err.splitlines() if line.startswith("fluidswarm coordinator: error: ")]
-    if not lines:
-        return f"camera {source}: the coordinator stopped (code {coord.returncode})"
-    return lines[-1].split("error: ", 1)[1]
+    return handover.error_line(coord) or f"camera {source}: the coordinator stopped (code {coord.returncode})"
 
 
-def _wait_first(coord: subprocess.Popen, path: Path, source: str, timeout: float, subject: str) -> Path:
-    deadline = time.monotonic() + timeout
-    while not path.exists():
-        if coord.poll() is not None:
-            raise UserError(_coordinator_error(coord, source))
-        if time.monotonic() > deadline:
-            what = "hand or person" if subject == "auto" else subject
-            last = [e["what"] for e in read_events(path.parent) if e.get("event") == "missing"]
-            raise UserError(f"camera {source}: no {what} seen in {timeout:.0f} s" + (f" ({last[-1]})" if last else ""))
-        time.sleep(0.05)
-    return path
+def _nothing_seen(folder: Path, source: str, timeout: float, subject: str) -> str:
+    """What to say when no subject was seen in time: the last reason the coordinator logged."""
+    what = "hand or person" if subject == "auto" else subject
+    last = [e["what"] for e in read_events(folder) if e.get("event") == "missing"]
+    return f"camera {source}: no {what} seen in {timeout:.0f} s" + (f" ({last[-1]})" if last else "")
 
 
 def read_events(folder: Path) -> list[dict]:
@@ -123,7 +111,7 @@ class CameraImitation:
     def drive(self, run: Run) -> None:
         o = run.options
         tmp = run.scratch
-        coord = start_coordinator(
+        coord, pipe = start_coordinator(
             run,
             [
                 "--camera",
@@ -146,12 +134,16 @@ class CameraImitation:
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)
-        first = load_observation(
-            _wait_first(coord, tmp / "first.npz", self.source, FIRST_SECONDS + self.stall_seconds, self.subject)
+        wait = FIRST_SECONDS + self.stall_seconds
+        self.im = im = handover.receive(
+            pipe,
+            coord,
+            wait,
+            lambda: _nothing_seen(tmp, self.source, wait, self.subject),
+            what=f"the coordinator of camera {self.source}",
         )
-        self.im = im = prepare_observation(first, self.agents, controller=self.controller)
-        assert first.frame is not None  # save_observation wrote the picture with the silhouette
-        target, image = write_target(tmp, im, first.frame)
+        assert im.observation.frame is not None  # a camera's observation carries its picture
+        target, image = write_target(tmp, im, im.observation.frame)
         meta = {
             "scenario": o.name,
             "camera": str(self.source),
@@ -160,7 +152,7 @@ class CameraImitation:
             "controller": self.controller,
             "agents": self.agents,
             "steps": self.steps,
-            "sync": "lockstep",
+            "sync": SyncMode.LOCKSTEP,
             "params": im.setup.params.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),

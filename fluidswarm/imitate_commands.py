@@ -61,10 +61,7 @@ def _coordinator(args) -> int:
 
 
 def _imitate(args) -> int:
-    from coordinator.control.fill import ShapeError
     from coordinator.control.imitation_setup import DEFAULT_STEPS
-    from perception.io import InputError
-    from perception.segmentation import SegmentationError
 
     if args.agents < 2:
         raise UserError(f"--agents: must be >= 2, got {args.agents}")
@@ -101,21 +98,19 @@ def _imitate(args) -> int:
     else:
         from fluidswarm.imitate import imitate
 
-        try:
-            record = imitate(
-                args.input,
-                agents=args.agents,
-                steps=steps,
-                out=args.out,
-                controller=args.controller,
-                frame=args.frame,
-                name=Path(args.input).stem or "imitate",
-                live=live,
-                robot=robot,
-                radio=radio,
-            )
-        except (InputError, SegmentationError, ShapeError) as exc:
-            raise UserError(f"{args.input}: {exc}" if str(args.input) not in str(exc) else str(exc)) from None
+        # a picture the coordinator cannot read is its one-line error (coordinator/handover.py CoordinatorFailed)
+        record = imitate(
+            args.input,
+            agents=args.agents,
+            steps=steps,
+            out=args.out,
+            controller=args.controller,
+            frame=args.frame,
+            name=Path(args.input).stem or "imitate",
+            live=live,
+            robot=robot,
+            radio=radio,
+        )
     if args.json:
         print_json(record)
     else:

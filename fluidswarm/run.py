@@ -33,7 +33,7 @@ import numpy as np
 
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
-from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.recording.progress import Progress
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
@@ -50,12 +50,16 @@ REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not 
 
 @dataclass(frozen=True)
 class Sync:
-    """How the agents keep time (docs/protocol.md): mode "lockstep" or "async"; rate [steps/s] each async
-    agent aims for (default 12); max_age [s] after which an async neighbour state is not used (default 1)."""
+    """How the agents keep time (docs/protocol.md): mode SyncMode.LOCKSTEP or .ASYNC (or its name); rate
+    [steps/s] each async agent aims for (default 12); max_age [s] after which an async neighbour state is not
+    used (default 1)."""
 
-    mode: str = "lockstep"
+    mode: SyncMode = SyncMode.LOCKSTEP
     rate: float = 12.0
     max_age: float = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mode", SyncMode(self.mode))  # a mode's name (CLI, scenario) is that mode
 
     def spec(self) -> dict:
         return {"mode": self.mode, "rate": self.rate, "max_age": self.max_age}
@@ -115,7 +119,7 @@ class RunRecord:
     kind: str
     agents: int
     steps: int
-    sync: str = "lockstep"
+    sync: str = SyncMode.LOCKSTEP
     run: str = ""
     router: str = ""
     finished: int = 0

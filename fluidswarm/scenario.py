@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from agent.protocol.errors import UserError
-from agent.protocol.spec import MODES
+from agent.protocol.spec import MODES, SyncMode
 from agent.sph.params import SPHParams
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
@@ -112,7 +112,7 @@ class Scenario:
     steps: int = 0  # 0: the experiment's default
     dt: float = 0.0  # 0: the experiment's default
     seed: int = 0
-    sync: str = "lockstep"
+    sync: str = SyncMode.LOCKSTEP
     async_rate: float = 12.0  # steps/s of each agent's own clock (sync = "async")
     async_max_age: float = 1.0  # s: older neighbour states are not used (sync = "async")
     neighbour_timeout: float = 0.0  # s a silent expected neighbour is waited for (0: the experiment's default)
@@ -211,7 +211,7 @@ def load_scenario(path: str | Path) -> Scenario:
         raise UserError(f"{file}: key 'experiment': must be one of {EXPERIMENTS}, got {kw['experiment']!r}")
     if kw.get("controller", "fill") not in CONTROLLERS:
         raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
-    if kw.get("sync", "lockstep") not in SYNC_MODES:
+    if kw.get("sync", SyncMode.LOCKSTEP) not in SYNC_MODES:
         raise UserError(f"{file}: key 'sync': must be one of {SYNC_MODES}, got {kw['sync']!r}")
     if not 1 <= kw.get("agents", 60) <= 2000:
         raise UserError(f"{file}: key 'agents': must be in 1..2000, got {kw['agents']}")

@@ -159,10 +159,8 @@ def kind_for(sc: Scenario, agents: int):
 
 def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
     """One run of the scenario with its failures, recorded in `out`."""
-    from coordinator.control.fill import ShapeError
+    from coordinator.handover import CoordinatorFailed
     from fluidswarm.run import Run, RunOptions
-    from perception.io import InputError
-    from perception.segmentation import SegmentationError
 
     kind = kind_for(sc, agents)
     imitation = sc.experiment == "imitate"
@@ -173,8 +171,8 @@ def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
     try:
         with Run(kind, options) as run:
             kind.drive(run)
-    except (InputError, SegmentationError, ShapeError) as exc:
-        raise UserError(f"{sc.path}: input {sc.input}: {exc}") from None
+    except CoordinatorFailed as exc:  # the coordinator perceives the input: its line names the input
+        raise UserError(f"{sc.path}: input {exc}") from None
     return run.record
 
 

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from agent.protocol.spec import NEIGHBOUR_TIMEOUT
+from agent.protocol.spec import MODES, NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
@@ -31,8 +31,8 @@ def register(sub) -> None:
     _add_auth_file_argument(p)
     p.add_argument(
         "--mode",
-        choices=("lockstep", "async"),
-        default="lockstep",
+        choices=MODES,
+        default=SyncMode.LOCKSTEP,
         help="lockstep (reproducible) or async (each agent on its own clock, docs/protocol.md)",
     )
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")

@@ -12,6 +12,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from agent.protocol.errors import UserError
+
 MAX_PIXELS = 40_000_000  # about 6300 x 6300; a 20000 x 20000 picture is refused before decoding
 MAX_FRAMES = 10_000
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff"}
@@ -20,7 +22,7 @@ STRIP_SIDE = 64  # Weizmann strips: 64 x 64 frames side by side
 MIN_CLIP_FRAMES = 3  # a person is found in a clip by what moves between frames: fewer hold too little motion
 
 
-class InputError(ValueError):
+class InputError(UserError, ValueError):
     """A file the user gave cannot be used; the message names the file and the problem."""
 
 

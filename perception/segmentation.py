@@ -18,11 +18,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from agent.protocol.errors import UserError
 from perception.body_parts import split_body
 from perception.person import person_masks
 
 
-class SegmentationError(ValueError):
+class SegmentationError(UserError, ValueError):
     """No plausible silhouette in the picture (empty, blank, all white)."""
 
 

@@ -29,10 +29,10 @@ SHARED = ROOT.parent / "shared" / "datasets"
 BODY_FRAMES = (("wave1", 0, 20), ("wave2", 0, 14), ("wave2", 2, 20), ("jack", 0, 10), ("jack", 2, 15), ("wave1", 3, 18))
 
 
-def inputs(kind: str) -> list[tuple[Path, int | None]]:
+def inputs(kind: str) -> list[tuple[Path, int]]:
     if kind == "hand":
         digits = SHARED / "sign-language-digits"
-        return [(sorted((digits / str(c)).iterdir())[k], None) for c in range(10) for k in (0, 3)]
+        return [(sorted((digits / str(c)).iterdir())[k], 0) for c in range(10) for k in (0, 3)]
     return [(SHARED / "weizmann-actions-64" / a / f"person{p}.png", f) for a, p, f in BODY_FRAMES]
 
 
@@ -47,7 +47,7 @@ def main() -> int:
         setup_module.FINGER_MU = setup_module.ARM_MU = mu
         ious, cvs, t = [], [], time.perf_counter()
         for path, frame in inputs(sys.argv[1]):
-            im = setup_module.prepare_input(path, 60, frame=frame)
+            im = setup_module.imitation_of_input(path, 60, frame=frame)
             s = im.setup
             out = VectorisedDriver(s.ids, s.states, followers_for(im.command, s.ids), s.params).run(500)
             f = fidelity(im.mask, im.transform, out[:, [X, Y]])

@@ -19,8 +19,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from agent.protocol.errors import SwarmError
 
-class HelperLost(RuntimeError):
+
+class HelperLost(SwarmError, RuntimeError):
     """A helper process of the run ended while the run needed it; the message says which, when and how."""
 
     def __init__(self, name: str, how: str, seconds: float, step: int, why: str = ""):

@@ -16,6 +16,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.ctl import Clock, End, Gone, ctl_message
+from agent.protocol.errors import SwarmTimeout
 from agent.protocol.wire import peek_id_step
 
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
@@ -189,7 +190,7 @@ class Pacer:
         deadline = time.monotonic() + timeout
         while self.max_step < step:
             if time.monotonic() > deadline:
-                raise TimeoutError(f"run did not reach step {step} in {timeout:.0f} s")
+                raise SwarmTimeout(f"run did not reach step {step} in {timeout:.0f} s")
             time.sleep(0.01)
 
     def end_at(self, step: int) -> None:

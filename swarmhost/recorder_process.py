@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import IO
 
 from agent.protocol import keys
-from agent.protocol.errors import UserError
+from agent.protocol.errors import SwarmFailed, SwarmTimeout, UserError
 from swarmhost.supervisor import die_with_parent, stop_process
 
 
@@ -80,7 +80,7 @@ class RecorderProcess:
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 why = self.last_words()
-                raise RuntimeError(
+                raise SwarmFailed(
                     f"recorder exited at start-up (code {self.proc.returncode})" + (f": {why}" if why else "")
                 )
             # its own token's key: a token on a wildcard key (`fluidswarm/**`) answers this query too
@@ -89,7 +89,7 @@ class RecorderProcess:
             ):
                 return self.proc
             time.sleep(0.1)
-        raise TimeoutError(f"recorder not ready after {timeout:.0f} s")
+        raise SwarmTimeout(f"recorder not ready after {timeout:.0f} s")
 
     def stop(self, timeout: float = 60.0) -> int | None:
         """SIGTERM the recorder: it writes the pending steps and the MCAP footer, then exits."""

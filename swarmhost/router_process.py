@@ -24,6 +24,7 @@ import tempfile
 import threading
 from typing import IO
 
+from agent.protocol.errors import SwarmFailed
 from swarmhost.executable import router_executable
 
 CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
@@ -31,7 +32,7 @@ CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (ro
 START_TIMEOUT = 60.0  # s until it listens (with the rules of 1280 users it opens in ~1 s here)
 
 
-class RouterFailed(RuntimeError):
+class RouterFailed(SwarmFailed):
     """The compiled router did not start or stopped answering (the message says why, in one line)."""
 
 

@@ -2,7 +2,9 @@
 
 Every process started here is stopped by `stop_all` (stop message, SIGTERM, SIGKILL); agents also get
 SIGTERM from the kernel if the launcher dies (PR_SET_PDEATHSIG, set by the agent itself), so none
-outlives it. Reports and events come from the network: they are decoded and validated by
+outlives it. The kernel ties that signal to the *thread* that spawned the process, so every agent is
+spawned by one thread of the supervisor's that lives until `stop_all` (late joiners too, whichever thread
+asks). Reports and events come from the network: they are decoded and validated by
 agent/protocol/report.py and events.py, and one that is malformed or published under another agent's key is
 dropped (events are counted in `Swarm.malformed_events`). Start and stop go out as agent/protocol/ctl.py
 records.
@@ -17,12 +19,14 @@ import subprocess
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import zenoh
 
 from agent.protocol import keys
 from agent.protocol.ctl import Start, Stop, ctl_message
+from agent.protocol.errors import SwarmFailed, SwarmTimeout
 from agent.protocol.events import AgentEvent, decode_event
 from agent.protocol.report import FinalReport, decode_report
 from agent.protocol.spec import AgentSpec
@@ -78,6 +82,8 @@ class Supervisor:
         # recorder, coordinator) is lost, so no wait outlives it (swarmhost/launcher.py: Launcher.check_helpers)
         self.health = health
         self.program = agent_executable()  # the compiled agent (agent/native); fail before any process starts
+        # The one thread that spawns agents (see the module's docstring): it lives until stop_all.
+        self._spawner = ThreadPoolExecutor(1, thread_name_prefix="agent-spawner")
         session, run = swarm.session, swarm.run
         self._subs = [
             session.declare_subscriber(keys.final_expr(run), self._on_final),
@@ -93,14 +99,12 @@ class Supervisor:
         # No preexec_fn: it forces a full fork() of this (large) Python process per agent, which made starting
         # 300 agents take seconds; without it Python spawns with vfork. The agent asks the kernel for SIGTERM
         # when its parent dies itself (PR_SET_PDEATHSIG first thing in main.rs, then checks it was not
-        # already orphaned), so none outlives the launcher.
-        # The death signal fires when the *thread* that spawned exits: late joiners started from a helper thread
-        # must not ask for it (they rely on close()).
-        if threading.current_thread() is not threading.main_thread():
-            env["FLUIDSWARM_NO_PDEATHSIG"] = "1"
-        proc = subprocess.Popen(
-            [self.program, "--spec", spec.to_json()], env=env, stdout=out, stderr=out, stdin=subprocess.DEVNULL
-        )
+        # already orphaned), so none outlives the launcher. That signal also fires when the spawning *thread*
+        # exits: the spawner thread outlives every agent it starts (a late joiner's helper thread would not).
+        argv = [self.program, "--spec", spec.to_json()]
+        proc = self._spawner.submit(
+            subprocess.Popen, argv, env=env, stdout=out, stderr=out, stdin=subprocess.DEVNULL
+        ).result()
         self.swarm.procs[spec.id] = proc
         return proc
 
@@ -145,12 +149,12 @@ class Supervisor:
                 left = deadline - time.monotonic()
                 dead = [i for i in want if i in self.swarm.procs and self.swarm.procs[i].poll() is not None]
                 if dead:
-                    raise RuntimeError(
+                    raise SwarmFailed(
                         f"agent {dead[0]} exited during start-up (code {self.swarm.procs[dead[0]].returncode})"
                     )
                 if left <= 0:
                     missing = sorted(want - self.swarm.alive)
-                    raise TimeoutError(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
+                    raise SwarmTimeout(f"{len(missing)} agents not ready after {timeout:.0f} s (first: {missing[:5]})")
                 self.swarm.changed.wait(min(left, 0.2))
 
     def start(self) -> None:
@@ -182,7 +186,7 @@ class Supervisor:
                     return
                 left = deadline - time.monotonic()
                 if left <= 0:
-                    raise TimeoutError(f"{len(pending)} agents still running after {timeout:.0f} s")
+                    raise SwarmTimeout(f"{len(pending)} agents still running after {timeout:.0f} s")
                 self.swarm.changed.wait(min(left, 0.2))
                 if progress is not None:
                     self.swarm.changed.release()
@@ -217,6 +221,7 @@ class Supervisor:
         for p in procs.values():
             if p.poll() is None:
                 p.kill()
+        self._spawner.shutdown()  # every agent has gone: its spawning thread may end
         _wait_all(procs.values(), 5.0)
         return {i: p.returncode for i, p in procs.items()}
 

@@ -17,9 +17,8 @@ import pytest
 
 from agent.protocol.command import CommandRejected, Waypoint, _canonical, decode, verify
 from agent.sph.particle import NFIELDS, Control, X, Y
-from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.route import CommandFollower, RouteFollower, class_counts, class_of
-from coordinator.process import commands_for_frames
 from tests.swarm_helpers import PER_PARTICLE, field_names
 
 REPO = Path(__file__).resolve().parent.parent
@@ -59,13 +58,13 @@ def sign(body: dict, secret: bytes) -> bytes:
 def commands(shared_image):
     out = {}
     for name, path, frame in (
-        ("v", shared_image(2), None),
-        ("one", shared_image(1), None),
+        ("v", shared_image(2), 0),
+        ("one", shared_image(1), 0),
         ("wave_side", WAVE2, 14),
         ("wave_up", WAVE2, 0),
     ):
         for controller in ("region", "pca", "ann"):
-            out[name, controller] = prepare_input(path, 30, controller=controller, frame=frame)
+            out[name, controller] = imitation_of_input(path, 30, controller, frame)
     return out
 
 
@@ -115,7 +114,7 @@ def test_ann_controller_uses_the_network_force(commands):
 
 
 def test_gesture_sequence_gets_a_new_command_per_change():
-    cmds = commands_for_frames(WAVE2, 24, "region")
+    cmds = [c for _first, c in imitation_of_input(WAVE2, 24, "region", frame=None).commands]
     assert len(cmds) >= 3
     assert [c.seq for c in cmds] == list(range(1, len(cmds) + 1))
     assert all(a.gesture != b.gesture for a, b in itertools.pairwise(cmds))

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.route import class_of
 from fluidswarm.recording.reader import load_run
 
@@ -95,7 +95,7 @@ def imitations(request, tmp_path_factory, shared_image):
 def top_third_y(image, agents: int) -> float:
     """The domain y of the hand's top third (image rows), where a V's fingers have separated, mapped with the
     transform of the run's own input."""
-    im = prepare_input(image, agents)
+    im = imitation_of_input(image, agents)
     rows = np.nonzero(im.mask.any(axis=1))[0]
     return float(im.transform.to_domain(np.array([0.0, rows.min() + 0.3 * (rows.max() - rows.min())]))[1])
 
@@ -121,7 +121,7 @@ def test_v_sign_two_branches_and_one_finger_one_elongated_branch(imitations, sha
 def test_wave2_arms_sideways_arm_classes_left_and_right_of_the_torso(imitations):
     # The region controller (thesis ch. 6): torso and arm classes with routes through the shoulders.
     ids, pos, fig = imitations["wave"].result()
-    im = prepare_input(WAVE2, 48, frame=WAVE2_SIDEWAYS, controller="region")
+    im = imitation_of_input(WAVE2, 48, "region", WAVE2_SIDEWAYS)
     assert im.observation.kind == "body" and im.observation.label == "left_side-right_side"
     shares = [c.share for c in im.command.classes]
     names = [im.command.classes[class_of(int(i), 48, shares)].name for i in ids]

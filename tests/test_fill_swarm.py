@@ -11,7 +11,6 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -24,7 +23,8 @@ from agent.protocol.command import Zone
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver, VectorisedDriver
-from coordinator.control.imitation_setup import prepare_observation
+from coordinator.control.imitation_setup import imitation_for
+from coordinator.control.observe import Observation
 from coordinator.control.route import followers_for
 from swarmhost.launcher import Launcher, run_swarm
 
@@ -38,7 +38,7 @@ def annulus_setup():
     yy, xx = np.mgrid[0:120, 0:120]
     r = np.hypot(xx - 60, yy - 60)
     mask = (r < 50) & (r > 22)
-    return prepare_observation(SimpleNamespace(mask=mask, label="annulus", kind="hand"), N_AGENTS, controller="fill")
+    return imitation_for([Observation("hand", mask, "annulus")], N_AGENTS, controller="fill")
 
 
 def test_native_swarm_fills_a_shape_with_a_hole_like_the_reference():

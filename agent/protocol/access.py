@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 from agent.protocol import keys
 from agent.protocol.acl import acl_config, agent_id_of
+from agent.protocol.errors import UserError
 
 USER_ENV = "FLUIDSWARM_ZENOH_USER"
 PASSWORD_ENV = "FLUIDSWARM_ZENOH_PASSWORD"
@@ -117,7 +118,7 @@ class UsersFile:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
-class AuthFileError(ValueError):
+class AuthFileError(UserError, ValueError):
     """A users file that cannot be used (the message names the file, the line and the problem)."""
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+from agent.protocol.errors import FluidswarmError
 from agent.records import native
 
 # The bounds (docs/command.md), the agent crate's command.rs: what a receiver accepts.
@@ -30,7 +31,7 @@ MAX_ZONES = native.COMMAND_MAX_ZONES  # material zones of a fill shape (fingers,
 MAX_DEPTH = native.COMMAND_MAX_DEPTH  # nested arrays/objects, the body counting 1
 
 
-class CommandRejected(ValueError):
+class CommandRejected(FluidswarmError, ValueError):
     """reason: 'malformed' | 'version' | 'signature' | 'replay'."""
 
     def __init__(self, reason: str, detail: str = ""):

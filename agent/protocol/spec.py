@@ -1,4 +1,10 @@
-"""What one agent process is told at start (its command line, as JSON), validated once at the edge."""
+"""What one agent process is told at start (its command line, as JSON), validated once at the edge.
+
+Besides its spec an agent reads only its environment's FLUIDSWARM_SECRET (the command key, when the spec's
+`secret` is empty) and FLUIDSWARM_ZENOH_USER / FLUIDSWARM_ZENOH_PASSWORD (its credentials, docs/security.md):
+secrets stay out of argv. It sets ZENOH_RUNTIME for itself, over any value given (zenoh's thread layout,
+measured: docs/protocol.md, "Inside an agent process"); no other variable of ours changes what it does.
+"""
 
 from __future__ import annotations
 
@@ -87,7 +93,7 @@ class AgentSpec:
     secret: str = ""
     join: bool = False
     state_key_ids: bool = False
-    mode: str = "lockstep"
+    mode: str = SyncMode.LOCKSTEP
     rate: float = 12.0
     max_age: float = 1.0
     neighbours: list = field(default_factory=list)

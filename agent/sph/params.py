@@ -46,8 +46,8 @@ class SPHParams:
     drag     linear drag coefficient [1/s] (per unit mass, -drag*v). 0 in the thesis' pure model; the
              imitation scenarios use a little so a swarm settles at its waypoints instead of orbiting.
     domain   (xmin, xmax, ymin, ymax) [m] of the environment.
-    border   'freeze' (thesis §4.7: a particle leaving the domain gets its fluid parameters set to 0 and
-             stops) or 'reflect' (mirrored back, normal velocity reversed).
+    border   Border.FREEZE (thesis §4.7: a particle leaving the domain gets its fluid parameters set to 0 and
+             stops) or Border.REFLECT (mirrored back, normal velocity reversed); its name is accepted too.
     """
 
     h: float = 1.0
@@ -62,7 +62,7 @@ class SPHParams:
     v_max: float = 5.0
     drag: float = 0.0
     domain: tuple[float, float, float, float] = (0.0, 60.0, 0.0, 30.0)
-    border: str = "freeze"
+    border: Border = Border.FREEZE
 
     def __post_init__(self) -> None:
         positive = ("h", "mass", "rho0", "gamma", "kappa", "dt", "v_max")
@@ -85,6 +85,8 @@ class SPHParams:
             raise ValueError(f"SPHParams.domain: need xmin < xmax and ymin < ymax, got {self.domain!r}")
         if self.border not in BORDER_POLICIES:
             raise ValueError(f"SPHParams.border: must be one of {BORDER_POLICIES}, got {self.border!r}")
+        # a policy's name (a scenario's [sph] table, a spec's JSON) is the Border it names
+        object.__setattr__(self, "border", Border(self.border))
         object.__setattr__(self, "domain", tuple(float(v) for v in self.domain))
 
     @property

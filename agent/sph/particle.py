@@ -30,7 +30,7 @@ from agent.sph.equations import (
     tait_pressure,
 )
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.robot import (
     POINT,
     RobotKind,
@@ -179,7 +179,7 @@ def apply_border(states: np.ndarray, params: SPHParams) -> None:
     """
     xmin, xmax, ymin, ymax = params.domain
     x, y = states[..., X], states[..., Y]
-    if params.border == "freeze":
+    if params.border is Border.FREEZE:
         outside = (x < xmin) | (x > xmax) | (y < ymin) | (y > ymax)
         states[..., FROZEN] = np.where(outside, 1.0, states[..., FROZEN])
         return

@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import HEADING, SPEED, VX, VY, Control, X, Y, initial_state
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, body_centres, check_layout, initial_pose
@@ -98,7 +98,7 @@ def spread_block(n: int = 64, spacing: float = 1.0, params: SPHParams | None = N
     The default set-up of `fluidswarm verify`: every term of the model is active (pressure, artificial
     viscosity, viscous stress, body force) so a decentralised run is compared on all of them.
     """
-    params = params or SPHParams(mu=0.5, drag=0.2, domain=(-30.0, 60.0, -30.0, 60.0), border="reflect")
+    params = params or SPHParams(mu=0.5, drag=0.2, domain=(-30.0, 60.0, -30.0, 60.0), border=Border.REFLECT)
     columns = max(1, int(round(np.sqrt(n))))
     pos = lattice(n, columns, spacing)
     rng = np.random.default_rng(seed)
@@ -114,7 +114,7 @@ def spread_block(n: int = 64, spacing: float = 1.0, params: SPHParams | None = N
 def drag(n: int = 49, mu: float = 2.0, push: float = 1.0, params: SPHParams | None = None) -> Setup:
     """Viscosity drag (thesis §4.7): a square block at rest; only its centre particle is pushed along +x.
     Every particle has the fluid's viscosity and stiffness: params.mu and params.beta (`mu` when no params)."""
-    params = params or SPHParams(mu=mu, domain=(-50.0, 80.0, -50.0, 80.0), border="reflect")
+    params = params or SPHParams(mu=mu, domain=(-50.0, 80.0, -50.0, 80.0), border=Border.REFLECT)
     columns = max(1, int(round(np.sqrt(n))))
     pos = lattice(n, columns)
     centre = int(np.argmin(np.hypot(pos[:, 0] - pos[:, 0].mean(), pos[:, 1] - pos[:, 1].mean())))

@@ -35,6 +35,7 @@ from agent.protocol.command import (
     Zone,
     edges_cross,
 )
+from agent.protocol.errors import UserError
 from agent.sph.kernel import gaussian_kernel
 from agent.sph.params import SPHParams
 from coordinator.control.geometry import ImageToDomain
@@ -57,7 +58,7 @@ MIN_PIXELS = 20  # a smaller silhouette does not say what shape it is (a coarse 
 MIN_FILLABLE = 0.25  # the vessel must keep at least this share of the silhouette (else: too thin / fragmented)
 
 
-class ShapeError(ValueError):
+class ShapeError(UserError, ValueError):
     """The silhouette cannot be filled by the swarm (too small, too thin or too fragmented)."""
 
 

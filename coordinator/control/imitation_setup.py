@@ -1,14 +1,19 @@
-"""From a picture to an imitation set-up: silhouette, transform, SPH parameters, initial swarm, command."""
+"""From what was observed to an imitation: silhouette, transform, SPH parameters, initial swarm, commands.
+
+`imitation_for` is the one function from observations to (set-up, commands); the coordinator process calls
+it for a file (`imitation_of_input`) and for a camera's first observation, and hands the result to the
+launching process (coordinator/handover.py); `reproduce` and the tests call the same function."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
 
 from agent.protocol.command import GestureCommand
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from coordinator.control.ann import ann_command
@@ -42,27 +47,6 @@ from perception.segmentation import hand_mask
 DEFAULT_STEPS = 700
 
 
-def imitation_params(domain, controller: str = "") -> SPHParams:
-    """SPH settings of the imitation runs: the thesis' model plus a little drag so the swarm settles.
-
-    dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
-    sets the rest density from the area each particle is given (coordinator/control/fill.py: rest_density).
-    """
-    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border="reflect")
-    if controller == "fill":
-        params = replace(params, rho0=rest_density(params))
-    return params
-
-
-@dataclass
-class Imitation:
-    mask: np.ndarray
-    transform: ImageToDomain
-    command: GestureCommand
-    setup: Setup
-    observation: Observation | None = None
-
-
 class Controller(StrEnum):
     """How a silhouette becomes a command: fill (the shape itself, docs/fill.md), region (k-means regions
     as waypoints), pca (the eigen classifier's gesture template), ann (the thesis' network's force)."""
@@ -74,14 +58,52 @@ class Controller(StrEnum):
 
 
 CONTROLLERS = tuple(c.value for c in Controller)
-DEFAULT_CONTROLLER = Controller.FILL.value
+DEFAULT_CONTROLLER = Controller.FILL
 
 
-def transform_for(mask: np.ndarray, n_agents: int, controller: str) -> ImageToDomain:
+def controller_of(name: str) -> Controller:
+    """The Controller named `name` (a Controller is its own name); ValueError naming the known ones."""
+    try:
+        return Controller(name)
+    except ValueError:
+        raise ValueError(f"unknown controller {name!r} (one of {', '.join(CONTROLLERS)})") from None
+
+
+def imitation_params(domain, controller: Controller | None = None) -> SPHParams:
+    """SPH settings of the imitation runs: the thesis' model plus a little drag so the swarm settles.
+
+    dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
+    sets the rest density from the area each particle is given (coordinator/control/fill.py: rest_density).
+    """
+    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border=Border.REFLECT)
+    if controller is Controller.FILL:
+        params = replace(params, rho0=rest_density(params))
+    return params
+
+
+@dataclass
+class Imitation:
+    """What an imitation starts from and is scored against: the target silhouette `mask` (of the last
+    observation shown) in the domain of `transform`, the `commands` along the observations [(index of the
+    first it holds for, command)], the swarm's initial `setup` and the target's `observation`."""
+
+    mask: np.ndarray
+    transform: ImageToDomain
+    commands: list[tuple[int, GestureCommand]]
+    setup: Setup
+    observation: Observation
+
+    @property
+    def command(self) -> GestureCommand:
+        """The first command: the one the swarm is placed for."""
+        return self.commands[0][1]
+
+
+def transform_for(mask: np.ndarray, n_agents: int, controller: Controller) -> ImageToDomain:
     """The image -> domain map, fixed by the first frame: the fill controller gives each particle more area,
     and its scale is a multiple of 2^-16 m/pixel so the fill shape's vertices (pixel corners) are exact
     binary fractions: a contour that touches itself stays touching, never crosses by a rounding error."""
-    if controller != "fill":
+    if controller is not Controller.FILL:
         return fit_transform(mask, n_agents, AREA_PER_PARTICLE)
     t = fit_transform(mask, n_agents, FILL_AREA)
     scale = round(t.scale * 2**16) / 2**16
@@ -105,32 +127,44 @@ def build_command(
     obs, transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER, seq: int = 1
 ) -> GestureCommand:
     """The chosen controller's command for one observation (coordinator.control.observe.Observation)."""
-    if controller == "fill":
+    kind = controller_of(controller)
+    if kind is Controller.FILL:
         return fill_command(
             obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64], zones=fill_zones(obs, transform)
         )
-    if controller == "region":
+    if kind is Controller.REGION:
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
         return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
-    if controller == "pca":
+    if kind is Controller.PCA:
         return pca_command(obs, transform, n_agents, seq=seq)
-    if controller == "ann":
-        return ann_command(obs, transform, n_agents, seq=seq)
-    raise ValueError(f"unknown controller {controller!r} (one of {', '.join(CONTROLLERS)})")
+    return ann_command(obs, transform, n_agents, seq=seq)
 
 
-def prepare_observation(
-    obs, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER, transform: ImageToDomain | None = None
-) -> Imitation:
-    """Transform (silhouette area = what n_agents particles cover), SPH parameters, command, and the initial
-    swarm: a compact lattice (spacing 1 m) at the command's common first waypoint (palm/torso centre)."""
-    mask = obs.mask
-    fill = controller == "fill"
-    transform = transform or transform_for(mask, n_agents, controller)
+def commands_along(
+    shown: Sequence[Observation], transform: ImageToDomain, n_agents: int, controller: str = DEFAULT_CONTROLLER
+) -> list[tuple[int, GestureCommand]]:
+    """[(index of the first observation it holds for, command)]: a new command (next sequence number)
+    whenever the recognised gesture (the command's `gesture`) changes between consecutive observations
+    `shown`, all in one image -> domain `transform` (thesis ch. 5, gesture sequences)."""
+    out: list[tuple[int, GestureCommand]] = []
+    last = None
+    for i, o in enumerate(shown):
+        cmd = build_command(o, transform, n_agents, controller, seq=len(out) + 1)
+        if cmd.gesture != last:
+            out.append((i, cmd))
+            last = cmd.gesture
+    return out
+
+
+def initial_setup(
+    mask: np.ndarray, transform: ImageToDomain, command: GestureCommand, n_agents: int, controller: Controller
+) -> Setup:
+    """SPH parameters and the initial swarm: a compact lattice at the silhouette's most interior point (fill)
+    or at the command's common first waypoint (palm / torso centre), each particle in its class."""
+    fill = controller is Controller.FILL
     params = imitation_params(domain_for(mask, transform), controller)
-    command = build_command(obs, transform, n_agents, controller, seq)
-    if fill:  # the silhouette's most interior point
+    if fill:
         centre = np.array(transform.to_domain(np.array(centre_px(mask)) + 0.5))
     else:
         first = command.classes[0].route[0]
@@ -140,17 +174,38 @@ def prepare_observation(
     pos += centre - pos.mean(axis=0)
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
     controls = [Control(beta=command.beta, mu=command.mu) for _ in range(n_agents)]
-
     shares = [c.share for c in command.classes]
     classes = np.array([class_of(i, n_agents, shares) for i in range(n_agents)])
-    setup = Setup(np.arange(n_agents), states, controls, classes, tuple(c.name for c in command.classes), params)
-    return Imitation(mask, transform, command, setup, obs)
+    return Setup(np.arange(n_agents), states, controls, classes, tuple(c.name for c in command.classes), params)
 
 
-def prepare(frame_bgr: np.ndarray, n_agents: int, seq: int = 1, controller: str = DEFAULT_CONTROLLER) -> Imitation:
-    """A hand photograph -> its imitation set-up."""
+def imitation_for(
+    shown: Sequence[Observation],
+    n_agents: int,
+    controller: str = DEFAULT_CONTROLLER,
+    transform: ImageToDomain | None = None,
+) -> Imitation:
+    """The imitation of the observations `shown` (one frame, or a gesture sequence): the one function from
+    what was observed to (set-up, commands), used by the coordinator process for a file and a camera, by
+    `reproduce` and by the tests. Pure: observations in, an Imitation out.
+
+    The first observation fixes the image -> domain map (default: silhouette area = what n_agents particles
+    cover, transform_for) and the swarm's start; the commands follow the observations (commands_along); the
+    target is the last observation's silhouette, in the first one's map."""
+    if not shown:
+        raise ValueError("no observation to imitate")
+    kind = controller_of(controller)
+    first, last = shown[0], shown[-1]
+    transform = transform or transform_for(first.mask, n_agents, kind)
+    commands = commands_along(shown, transform, n_agents, kind)
+    setup = initial_setup(first.mask, transform, commands[0][1], n_agents, kind)
+    return Imitation(last.mask, transform, commands, setup, last)
+
+
+def prepare(frame_bgr: np.ndarray, n_agents: int, controller: str = DEFAULT_CONTROLLER) -> Imitation:
+    """A hand photograph -> its imitation."""
     mask = hand_mask(frame_bgr)
-    return prepare_observation(Observation("hand", mask, hand_label(mask), frame_bgr), n_agents, seq, controller)
+    return imitation_for([Observation("hand", mask, hand_label(mask), frame_bgr)], n_agents, controller)
 
 
 def observations_for(path, frame: int | None = None):
@@ -164,19 +219,8 @@ def observations_for(path, frame: int | None = None):
     return frames, observe(path, frames), (frame or 0)
 
 
-def prepare_input(
-    path, n_agents: int, controller: str = DEFAULT_CONTROLLER, frame: int | None = None, sequence: bool = False
-) -> Imitation:
-    """An image, folder or clip -> the set-up that imitates one of its frames (default the first).
-
-    With `sequence` (a gesture sequence, thesis ch. 5) the swarm starts as for the first frame and the
-    target it is scored against is the last frame's silhouette, in the first frame's image -> domain
-    transform (the coordinator keeps that transform along the sequence too)."""
-    if sequence:
-        _frames, obs, _k = observations_for(path, None)
-        im = prepare_observation(obs[0], n_agents, controller=controller)
-        im.mask = obs[-1].mask
-        im.observation = obs[-1]
-        return im
+def imitation_of_input(path, n_agents: int, controller: str = DEFAULT_CONTROLLER, frame: int | None = 0) -> Imitation:
+    """An image, folder or clip -> the imitation of its frame `frame` (default the first), or with frame None
+    of all its frames as a gesture sequence (thesis ch. 5): imitation_for on what perception observed."""
     _frames, obs, k = observations_for(path, frame)
-    return prepare_observation(obs[k], n_agents, controller=controller)
+    return imitation_for(obs if frame is None else [obs[k]], n_agents, controller)

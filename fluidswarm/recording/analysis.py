@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import pdist
 
-from fluidswarm.recording.reader import Run
+from fluidswarm.recording.reader import Recording
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class Series:
     pair_distance: np.ndarray  # (S,) mean pairwise distance
 
 
-def series(run: Run) -> Series:
+def series(run: Recording) -> Series:
     frames = run.frames
     n = len(frames)
     classes = sorted({int(c) for f in frames for c in np.unique(f.class_ids)})

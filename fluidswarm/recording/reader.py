@@ -7,8 +7,8 @@ The roster is every id seen in a state or an event, plus `agent_ids` from the ru
 Steps are the recorded ones plus any gap between the first and the last (a lost step misses every agent
 alive then).
 
-A file whose writer died (no footer) is read up to its last whole record (recording/recover.py); the Run says
-so (`truncated`, `salvage`), and completeness applies to the steps it kept.
+A file whose writer died (no footer) is read up to its last whole record (recording/recover.py); the Recording
+says so (`truncated`, `salvage`), and completeness applies to the steps it kept.
 """
 
 from __future__ import annotations
@@ -88,7 +88,9 @@ class Image:
 
 
 @dataclass
-class Run:
+class Recording:
+    """A run as its MCAP file holds it, read back (`load_run`); the run itself is fluidswarm/run.py `Run`."""
+
     path: Path
     name: str
     metadata: dict  # the `run` metadata record, JSON values decoded
@@ -191,8 +193,8 @@ def salvaged(path: Path) -> Salvage:
         raise UserError(f"{path}: damaged MCAP file ({exc})") from None
 
 
-def load_run(path: str | os.PathLike, *, images: bool = True) -> Run:
-    """Read the whole run; a file whose writer died, up to its last whole record (`Run.truncated`). Raises
+def load_run(path: str | os.PathLike, *, images: bool = True) -> Recording:
+    """Read the whole run; a file whose writer died, up to its last whole record (`Recording.truncated`). Raises
     UserError naming the file if it is missing, not MCAP, or damaged."""
     path = Path(path)
     if not finished(path):
@@ -219,7 +221,7 @@ def _scores(values: dict[str, str]) -> dict[str, float]:
 
 
 def as_fidelity(scores: dict[str, float]) -> Fidelity | None:
-    """A run's recorded scores (`Run.fidelity`) as a Fidelity; None when the file holds none."""
+    """A run's recorded scores (`Recording.fidelity`) as a Fidelity; None when the file holds none."""
     if not scores:
         return None
     return Fidelity(scores["fidelity_iou"], scores["fidelity_inside"], scores["fidelity_coverage"], scores["nn_cv"])
@@ -255,7 +257,7 @@ def recorded_robots(path: str | os.PathLike) -> dict | None:
     return None
 
 
-def _read(path: Path, reader, want_images: bool) -> Run:
+def _read(path: Path, reader, want_images: bool) -> Recording:
     """The run from `reader`: mcap's reader of a finished file, or a Salvage (iter_metadata, iter_attachments,
     iter_messages yielding (schema, channel, message))."""
     metadata, target_meta, scores = {}, {}, {}
@@ -266,7 +268,7 @@ def _read(path: Path, reader, want_images: bool) -> Run:
             scores = _scores(record.metadata)
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
-    run = Run(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores)
+    run = Recording(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores)
     for att in reader.iter_attachments():
         meta = target_meta.get(att.name)
         if meta is None:
@@ -337,14 +339,14 @@ class Completeness:
         )
 
 
-def salvage_lines(run: Run) -> str:
+def salvage_lines(run: Recording) -> str:
     """For a file whose writer died: `truncated=true` and what was kept and dropped ("" for a finished file)."""
     if run.salvage is None:
         return ""
     return f"truncated=true\n{run.salvage.lines()}"
 
 
-def completeness(run: Run) -> Completeness:
+def completeness(run: Recording) -> Completeness:
     """Apply the completeness rule (module docstring) to a loaded run."""
     if not run.frames:
         return Completeness(complete=False, steps=0, missing_states=0)

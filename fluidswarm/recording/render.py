@@ -17,7 +17,7 @@ from PIL import Image
 
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.analysis import Series
-from fluidswarm.recording.reader import Frame, Run, Scene, Target
+from fluidswarm.recording.reader import Frame, Recording, Scene, Target
 
 FORMATION_SIZE = (700, 500)  # width, height in pixels
 SNAPSHOT_SIZE = (640, 640)
@@ -26,7 +26,7 @@ PLOT_SIZE = (800, 500)
 _DPI = 100
 
 
-def domain_extent(run: Run, margin: float = 0.05) -> tuple[float, float, float, float]:
+def domain_extent(run: Recording, margin: float = 0.05) -> tuple[float, float, float, float]:
     """(xmin, xmax, ymin, ymax): metadata `domain` if recorded, else what the particles and target span."""
     dom = run.metadata.get("domain")
     if isinstance(dom, (list, tuple)) and len(dom) == 4:
@@ -105,7 +105,7 @@ class FormationRenderer:
     restores them and draws only what moves (scene, particles, title): a full Agg draw per frame (ticks and
     text laid out again) took ~50 ms, most of the time of a scenario run's replay."""
 
-    def __init__(self, run: Run, size: tuple[int, int]):
+    def __init__(self, run: Recording, size: tuple[int, int]):
         self.fig, self.canvas = _figure(size)
         self.ax = self.fig.add_axes((0.1, 0.08, 0.85, 0.85))
         xmin, xmax, ymin, ymax = domain_extent(run)

@@ -13,7 +13,7 @@ from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity, fidelity
 from fluidswarm.recording.analysis import Series, series
 from fluidswarm.recording.progress import Progress
-from fluidswarm.recording.reader import Run, as_fidelity, load_run
+from fluidswarm.recording.reader import Recording, as_fidelity, load_run
 from fluidswarm.recording.render import GIF_SIZE, SNAPSHOT_SIZE, FormationRenderer, plot_series, save_gif, save_png
 
 SNAPSHOT_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -32,7 +32,7 @@ class ReplayResult:
         return [*self.snapshots, self.gif, *self.plots.values()]
 
 
-def final_fidelity(run: Run) -> Fidelity | None:
+def final_fidelity(run: Recording) -> Fidelity | None:
     """Fidelity of the last recorded step's particles against the last target: the recorder's own score
     when the file holds it (scored once, at the end of the run), else (older files) scored here."""
     recorded = as_fidelity(run.fidelity)

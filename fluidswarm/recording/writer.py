@@ -30,6 +30,7 @@ from typing import Self
 import numpy as np
 from mcap.writer import CompressionType, IndexType, Writer
 
+from agent.protocol.errors import SwarmFailed
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import messages as msg
 from fluidswarm.recording import schemas as sc
@@ -155,7 +156,7 @@ class RunWriter:
 
     def _raise_if_failed(self) -> None:
         if self._error is not None:
-            raise RuntimeError(f"recording to {self.path} failed: {self._error}") from self._error
+            raise SwarmFailed(f"recording to {self.path} failed: {self._error}") from self._error
 
     def _drain(self) -> None:
         """The writer thread: the only code that touches the MCAP writer, so an exception raised in the

@@ -10,11 +10,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import pdist
 
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import RHO, VX, VY, Control, P, initial_state
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
-from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.region import body_region_command
 from coordinator.control.route import followers_for
 from fluidswarm.reproduce import plots
@@ -54,9 +54,9 @@ def switch_setups(n: int = 100) -> dict[str, tuple[np.ndarray, list, SPHParams]]
         pos = lattice(side * side, side)
         if name == "walls":
             pos = lattice(side * side, side, 0.9, (0.45, 0.45))
-            params = SPHParams(drag=0.5, domain=(0.0, 0.9 * side, 0.0, 0.9 * side), border="reflect")
+            params = SPHParams(drag=0.5, domain=(0.0, 0.9 * side, 0.0, 0.9 * side), border=Border.REFLECT)
         else:
-            params = SPHParams(drag=0.5, domain=(-50.0, 60.0, -50.0, 60.0), border="reflect")
+            params = SPHParams(drag=0.5, domain=(-50.0, 60.0, -50.0, 60.0), border=Border.REFLECT)
         pull = dict(wx=c[0], wy=c[1], r=1.0, s=3.0, alpha=0.5) if name == "body force" else {}
         states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])
         out[name] = (states, [Control(**pull) for _ in pos], params)
@@ -130,13 +130,12 @@ def pressure_switch(ctx: Context, g: Group) -> None:
     )
 
 
-def imitation(path: Path, n: int, controller: str, frame: int | None = None, beta_arm: float | None = None):
+def imitation(path: Path, n: int, controller: str, frame: int = 0, beta_arm: float | None = None):
     """(setup, followers) of an imitation of `path` on the reference driver."""
-    im = prepare_input(str(path), n, controller=controller, frame=frame)
+    im = imitation_of_input(str(path), n, controller, frame)
     command = im.command
     if beta_arm is not None:
         obs = im.observation
-        assert obs is not None  # prepare_input keeps the observation it built
         command = body_region_command(obs.mask, obs.parts, im.transform, n, gesture=obs.label, beta_arm=beta_arm)
     return im.setup, followers_for(command, im.setup.ids), command
 

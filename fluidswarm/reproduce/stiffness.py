@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import FROZEN, Y
 from agent.sph.setups import branch_gap, branching
 from fluidswarm.reproduce import plots
@@ -301,7 +301,7 @@ def border_freeze(ctx: Context, g: Group) -> None:
         n,
         beta_middle=20.0,
         beta_edge=2.0,
-        params=SPHParams(drag=0.0, domain=(-20.0, 100.0, -3.0, top), border="freeze"),
+        params=SPHParams(drag=0.0, domain=(-20.0, 100.0, -3.0, top), border=Border.FREEZE),
     )
     r = record(setup, steps)
     frozen = r.final[:, FROZEN] != 0

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from agent.sph.reference import VectorisedDriver
-from coordinator.control.imitation_setup import prepare_input
+from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.route import followers_for
 from fluidswarm.bench_record import BenchRecord
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
@@ -68,7 +68,7 @@ def measure(ctx: Context) -> list[Group]:
     n_p, sim_seconds = (40, 4.0) if ctx.quick else (100, 12.0)
     walls, steps = {}, {}
     for scale in (1.0, 0.7):
-        im = prepare_input(str(INPUTS / "digit2_IMG_1140.JPG"), n_p, controller="region")
+        im = imitation_of_input(str(INPUTS / "digit2_IMG_1140.JPG"), n_p, "region")
         params = im.setup.params.with_(dt=im.setup.params.dt * scale)
         steps[scale] = int(round(sim_seconds / params.dt))
         best = float("inf")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agent.sph.params import SPHParams
+from agent.sph.params import Border, SPHParams
 from agent.sph.particle import RHO, VX, VY, Control, X, Y, initial_state
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
@@ -25,7 +25,7 @@ MUS = (0.0, 0.5, 2.0)
 
 def drag_block(mu: float, beta: float = 2.0):
     """(states, controls, params, pushed index) of the Fig. 4.14 set-up."""
-    params = SPHParams(mu=mu, domain=(-100.0, 100.0, -100.0, 100.0), border="reflect")
+    params = SPHParams(mu=mu, domain=(-100.0, 100.0, -100.0, 100.0), border=Border.REFLECT)
     pos = lattice(99, 11)
     pushed = int(np.flatnonzero((pos[:, 0] == 5) & (pos[:, 1] == 4))[0])
     states = np.array([initial_state(x, y, 0.0, 0.0, params) for x, y in pos])

@@ -1,8 +1,8 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
-//! Modules mirror the Python oracle: sph and robot (agent/sph), wire (agent/protocol/wire.py), keys (agent/protocol/keys.py),
-//! command (agent/protocol/command.py decoding), fill (agent/fill.py and the command's crossing check),
-//! route (coordinator/control/route.py), spec (agent/protocol/spec.py), ctl, event and final_report
-//! (agent/protocol/ctl.py, events.py, report.py).
+//! sph and robot check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command, fill,
+//! route, ctl and event are the one implementation of those records, which the Python side wraps (agent/protocol/
+//! wire.py, keys.py, command.py, ctl.py, events.py, agent/fill.py, coordinator/control/route.py through the
+//! extension module agent/native/python); spec and final_report pair with agent/protocol/spec.py and report.py.
 
 pub mod agent;
 pub mod command;

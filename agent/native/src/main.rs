@@ -39,15 +39,14 @@ fn install_signals() {
         libc::signal(libc::SIGALRM, on_alarm as *const () as usize);
     }
     // The launcher's death stops us (it spawns without a fork hook, so this is the only place it is asked
-    // for). It is tied to the spawning *thread*: a launcher thread that ends early sets FLUIDSWARM_NO_PDEATHSIG.
-    if std::env::var_os("FLUIDSWARM_NO_PDEATHSIG").is_none() {
-        // SAFETY: prctl/getppid/_exit with plain integer arguments.
-        unsafe {
-            let parent = libc::getppid();
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-            if libc::getppid() != parent || parent == 1 {
-                libc::_exit(EXIT_STOPPED); // the parent died before the line above took effect
-            }
+    // for). The kernel ties it to the spawning *thread*: the launcher spawns every agent from one thread that
+    // outlives them (swarmhost/supervisor.py).
+    // SAFETY: prctl/getppid/_exit with plain integer arguments.
+    unsafe {
+        let parent = libc::getppid();
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+        if libc::getppid() != parent || parent == 1 {
+            libc::_exit(EXIT_STOPPED); // the parent died before the line above took effect
         }
     }
 }

@@ -108,7 +108,8 @@ pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
     Ok(StateRecord { id, step: u32_at(data, 8), class: u16_at(data, 12), values })
 }
 
-/// The sender's id and step, unvalidated: a cheap hint for the receiving callback (agent/process.py: _ID_STEP).
+/// The sender's id and step, unvalidated: a cheap hint for a receiver before it decodes (the agent's inbox,
+/// shell/inbox.rs; the launcher's pacing, swarmhost/pacing.py, through agent/protocol/wire.py).
 pub fn peek_id_step(data: &[u8]) -> Option<(u32, u32)> {
     (data.len() == STATE_SIZE).then(|| (u32_at(data, 4), u32_at(data, 8)))
 }

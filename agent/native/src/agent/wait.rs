@@ -12,8 +12,8 @@ impl AgentCore {
     /// Agents whose step-m state this agent must wait for (docs/protocol.md, "Expected agents").
     ///
     /// A sighting k steps old (k = m - its step >= 1) can have moved k v_max dt since, so it is expected
-    /// within 2h + (k + 2) v_max dt: R_expect for k = 1, wider for a lagging neighbour. The Python agent used
-    /// R_expect whatever the age, which lost exactness under load (issue 14, defect (a)): a particle up to
+    /// within 2h + (k + 2) v_max dt: R_expect for k = 1, wider for a lagging neighbour. R_expect whatever the
+    /// age (the retired Python agent's rule) lost exactness under load (issue 14, defect (a)): a particle up to
     /// CLOCK_LEAD steps ahead of its group judged a neighbour by a sighting 3-4 steps old, did not wait for
     /// it, and the neighbour then reached its support at that step.
     pub(super) fn expected(&mut self, now: f64) -> HashSet<u32> {
