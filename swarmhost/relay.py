@@ -17,7 +17,7 @@ from __future__ import annotations
 import zenoh
 
 from agent.protocol import keys
-from swarmhost.router_process import RouterFailed
+from swarmhost.router_process import RouterFailed, rejected_counts
 
 REQUEST_TIMEOUT = 10.0  # s; a router answers in milliseconds, a lost one never
 
@@ -60,11 +60,7 @@ class HostRelay:
         is closed, its last counts."""
         if self.session.is_closed():
             return dict(self._last_rejected)
-        answer = self._ask("rejected")
-        words = answer.split()
-        if not words or words[0] != "rejected":
-            raise RouterFailed(f"the router at {self.endpoint}: unexpected answer {answer!r}")
-        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+        return rejected_counts(self._ask("rejected"), f"the router at {self.endpoint}")
 
     def close(self) -> None:
         """Keep the last counts (the router's relay goes on for other launchers of its host)."""

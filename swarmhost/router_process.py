@@ -36,6 +36,15 @@ class RouterFailed(SwarmFailed):
     """The compiled router did not start or stopped answering (the message says why, in one line)."""
 
 
+def rejected_counts(answer: str, who: str) -> dict[str, int]:
+    """Reason -> count from a relay's answer `rejected length=<n> …` (relay.rs answer); `who` names the router
+    in the error of any other answer."""
+    words = answer.split()
+    if not words or words[0] != "rejected":
+        raise RouterFailed(f"{who}: unexpected answer {answer!r}")
+    return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+
+
 class RouterProcess:
     """`run`: the run's name (the relay's keys), None for a host's router (any run, asked over Zenoh);
     `settings`: the router's Zenoh configuration as a nested dict (agent/protocol/session.py:
@@ -122,11 +131,7 @@ class RouterProcess:
         """Reason -> states the relay dropped so far; once the router is closed, its last counts."""
         if self._stdin.closed:
             return dict(self._last_rejected)
-        answer = self.ask("rejected")
-        words = answer.split()
-        if not words or words[0] != "rejected":
-            raise RouterFailed(f"fluidswarm-router: unexpected answer {answer!r}")
-        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
+        return rejected_counts(self.ask("rejected"), "fluidswarm-router")
 
     def close(self) -> None:
         """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent. The

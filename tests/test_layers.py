@@ -110,16 +110,17 @@ def test_imports_only_go_down_the_layers():
     assert not upward, "imports up the layers:\n" + "\n".join(sorted(set(upward)))
 
 
-def test_no_import_cycle():
-    _, edges = graph()
+def find_cycles(edges: dict[str, list[tuple[str, object]]], where: bool = False) -> list[str]:
+    """Every cycle a depth-first walk of `edges` (name -> [(target, where)]) meets, as `a -> b -> a`, with the
+    closing edge's `where` (file:line) when asked."""
     state: dict[str, int] = {}  # 1 on the current path, 2 done
     cycles: list[str] = []
 
     def visit(name: str, path: list[str]) -> None:
         state[name] = 1
-        for target, _ in edges[name]:
+        for target, at in edges.get(name, []):
             if state.get(target) == 1:
-                cycles.append(" -> ".join(path[path.index(target) :] + [target]))
+                cycles.append(" -> ".join(path[path.index(target) :] + [target]) + (f" ({at})" if where else ""))
             elif target not in state:
                 visit(target, path + [target])
         state[name] = 2
@@ -127,6 +128,12 @@ def test_no_import_cycle():
     for name in sorted(edges):
         if name not in state:
             visit(name, [name])
+    return cycles
+
+
+def test_no_import_cycle():
+    _, edges = graph()
+    cycles = find_cycles(edges)
     assert not cycles, "import cycles:\n" + "\n".join(cycles)
 
 
@@ -172,19 +179,5 @@ def rust_modules() -> dict[str, list[tuple[str, str]]]:
 def test_no_rust_module_cycle():
     edges = rust_modules()
     assert {"agent", "command", "fill", "sph", "wire"} <= set(edges)  # the walk found the crate
-    cycles: list[str] = []
-    state: dict[str, int] = {}
-
-    def visit(name: str, path: list[str]) -> None:
-        state[name] = 1
-        for target, where in edges.get(name, []):
-            if state.get(target) == 1:
-                cycles.append(" -> ".join(path[path.index(target) :] + [target]) + f" ({where})")
-            elif target not in state:
-                visit(target, path + [target])
-        state[name] = 2
-
-    for name in sorted(edges):
-        if name not in state:
-            visit(name, [name])
+    cycles = find_cycles(edges, where=True)
     assert not cycles, "module cycles in agent/native/src:\n" + "\n".join(cycles)
