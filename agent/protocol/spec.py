@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
+from agent.sph.obstacles import Obstacle, obstacles_from
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
 from agent.sph.radio import RadioModel
@@ -78,6 +79,8 @@ class AgentSpec:
     robot          the particle's body and drive, RobotModel fields (agent/sph/robot.py; {}: a point)
     radio          what its radio and localisation make of the states it receives, RadioModel fields
                    (agent/sph/radio.py: loss, latency, noise, seed; {}: perfect; lockstep only)
+    obstacles      the domain's static obstacles, [{"kind": "circle", "centre": [x, y], "radius": r} |
+                   {"kind": "polygon", "vertices": [[x, y], ...]}, ...] (agent/sph/obstacles.py; []: none)
     """
 
     run: str
@@ -99,11 +102,14 @@ class AgentSpec:
     neighbours: list = field(default_factory=list)
     robot: dict = field(default_factory=dict)
     radio: dict = field(default_factory=dict)
+    obstacles: list = field(default_factory=list)
 
     def to_json(self) -> str:
         fields = asdict(self)
         if not fields["radio"]:
             del fields["radio"]  # a perfect radio is the default: the spec of a run without one is as before
+        if not fields["obstacles"]:
+            del fields["obstacles"]  # likewise an empty domain
         return json.dumps(fields, separators=(",", ":"))
 
     @classmethod
@@ -168,6 +174,7 @@ class AgentSpec:
         if self.mode == SyncMode.ASYNC and not radio.is_perfect:
             raise ValueError("agent spec: radio: the imperfect radio is modelled in lockstep only (mode async)")
         self.static_control()
+        self.obstacle_list()
 
     def robot_model(self) -> RobotModel:
         if not isinstance(self.robot, dict):
@@ -184,6 +191,12 @@ class AgentSpec:
             return RadioModel(**self.radio)
         except TypeError as exc:
             raise ValueError(f"agent spec: radio: {exc}") from None
+        except ValueError as exc:
+            raise ValueError(f"agent spec: {exc}") from None
+
+    def obstacle_list(self) -> tuple[Obstacle, ...]:
+        try:
+            return obstacles_from(self.obstacles, "obstacles")
         except ValueError as exc:
             raise ValueError(f"agent spec: {exc}") from None
 

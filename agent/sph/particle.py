@@ -17,6 +17,8 @@ two exchanges) would use the current one; `fluidswarm reproduce` measures both
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,7 @@ from agent.sph.equations import (
     tait_pressure,
 )
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
+from agent.sph.obstacles import OBSTACLE_MARGIN, Obstacle, obstacle_acceleration
 from agent.sph.params import Border, SPHParams
 from agent.sph.robot import (
     POINT,
@@ -93,14 +96,20 @@ def interacting(own: np.ndarray, neighbours: np.ndarray, params: SPHParams) -> n
 
 
 def step_particle(
-    own: np.ndarray, neighbours: np.ndarray, control: Control, params: SPHParams, robot: RobotModel = POINT
+    own: np.ndarray,
+    neighbours: np.ndarray,
+    control: Control,
+    params: SPHParams,
+    robot: RobotModel = POINT,
+    obstacles: Sequence[Obstacle] = (),
 ) -> np.ndarray:
     """Next state of one particle from its own state and its neighbours' states (rows sorted by id).
 
     `neighbours` may hold any superset of the particles within kappa*h (self excluded): rows outside the
     support or frozen are dropped here, so every caller gets the same sums in the same order.
     Integration: symplectic Euler, v' = v + dt a, x' = x + dt v' (speed capped at v_max). A robot takes
-    u = v + dt a as its desired velocity and moves as its drive allows (agent/sph/robot.py).
+    u = v + dt a as its desired velocity and moves as its drive allows (agent/sph/robot.py). `obstacles` push
+    its body away with the boundary force of agent/sph/obstacles.py (none: the step is as without them).
     """
     if own[FROZEN] != 0.0:
         return own.copy()
@@ -136,6 +145,9 @@ def step_particle(
     if robot.kind != RobotKind.POINT:  # robots keep their bodies apart (robot.py: contact_terms)
         cx, cy = contact_acceleration(own, nb, robot)
         acc_x, acc_y = acc_x + cx, acc_y + cy
+    if obstacles:
+        ox, oy = obstacle_push(own, obstacles, params, robot)
+        acc_x, acc_y = acc_x + ox, acc_y + oy
 
     new = own.copy()
     new[VX], new[VY] = own[VX] + params.dt * acc_x, own[VY] + params.dt * acc_y
@@ -161,6 +173,21 @@ def step_particle(
     if new[FROZEN] != 0.0:  # thesis: a particle leaving the domain loses its fluid parameters
         new[[VX, VY, P, SXX, SXY, SYY, SPEED]] = 0.0
     return new
+
+
+def obstacle_push(own: np.ndarray, obstacles: Sequence[Obstacle], params: SPHParams, robot: RobotModel):
+    """The obstacles' boundary force on the body of `own` (agent/sph/obstacles.py): from its body centre (a
+    unicycle's axle centre), beginning OBSTACLE_MARGIN h plus a robot's braking distance beyond its radius, of
+    strength v_max^2 (the robot's; the fluid's for a point), from the edges within the kernel support."""
+    cx, cy = float(own[X]), float(own[Y])
+    if robot.kind == RobotKind.UNICYCLE:
+        heading = float(own[HEADING])
+        cx, cy = cx - robot.offset * math.cos(heading), cy - robot.offset * math.sin(heading)
+    top = params.v_max if robot.kind == RobotKind.POINT else robot.v_max
+    # a robot's drive brakes at a_max: the force begins its braking distance earlier (a point stops at once)
+    braking = 0.0 if robot.kind == RobotKind.POINT else robot.v_max * robot.v_max / (2.0 * robot.a_max)
+    r0 = robot.radius + OBSTACLE_MARGIN * params.h + braking
+    return obstacle_acceleration(cx, cy, obstacles, r0, top * top, params.support)
 
 
 def cap_speed(states: np.ndarray, params: SPHParams) -> None:

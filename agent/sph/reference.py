@@ -22,6 +22,7 @@ from agent.sph.equations import (
     tait_pressure,
 )
 from agent.sph.kernel import gaussian_kernel, kernel_gradient
+from agent.sph.obstacles import Obstacle
 from agent.sph.params import SPHParams
 from agent.sph.particle import (
     FROZEN,
@@ -109,7 +110,8 @@ class Driver:
     """A centralised solver of the swarm: particles sorted by id (an agent's neighbour order), one
     `step()` a time step of all of them; `run(steps)` returns the states after the last. `robot`: every
     particle's body and drive (agent/sph/robot.py); `radio`: what their radios make of their neighbours'
-    states (agent/sph/radio.py; the per-particle driver only)."""
+    states (agent/sph/radio.py; the per-particle driver only); `obstacles`: the domain's static obstacles
+    (agent/sph/obstacles.py; the per-particle driver only)."""
 
     def __init__(
         self,
@@ -119,6 +121,7 @@ class Driver:
         params: SPHParams,
         robot: RobotModel = POINT,
         radio: RadioModel = PERFECT,
+        obstacles: Sequence[Obstacle] = (),
     ):
         order = np.argsort(np.asarray(ids), kind="stable")
         self.ids = np.asarray(ids)[order]
@@ -127,6 +130,7 @@ class Driver:
         self.params = params
         self.robot = robot
         self.radio = radio
+        self.obstacles = tuple(obstacles)
         self.step_index = 0
         # the states of the last radio.latency + 1 steps, oldest first (the radio's latency)
         self.history: list[np.ndarray] = []
@@ -157,7 +161,7 @@ class PerParticleDriver(Driver):
         for k in range(len(current)):
             neighbours = current[np.sort(by_particle[k])]  # ids are sorted, so index order is id order
             control = self.controls[k].control(current[k], self.step_index)
-            new[k] = step_particle(current[k], neighbours, control, params, self.robot)
+            new[k] = step_particle(current[k], neighbours, control, params, self.robot, self.obstacles)
         self.states = new
         self.step_index += 1
 
@@ -184,7 +188,7 @@ class PerParticleDriver(Driver):
             rows[:, X] += error[near, 0]
             rows[:, Y] += error[near, 1]
             control = self.controls[k].control(own, t)
-            new[k] = step_particle(own, rows, control, params, self.robot)
+            new[k] = step_particle(own, rows, control, params, self.robot, self.obstacles)
         self.states = new
         self.step_index += 1
 
@@ -200,6 +204,8 @@ class VectorisedDriver(Driver):
     def step(self) -> None:
         if not self.radio.is_perfect:
             raise NotImplementedError("the vectorised driver has a perfect radio: use PerParticleDriver")
+        if self.obstacles:
+            raise NotImplementedError("the vectorised driver has no obstacles: use PerParticleDriver")
         params, s = self.params, self.states
         n = len(s)
         h, m = params.h, params.mass

@@ -10,6 +10,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from agent.sph.obstacles import Obstacle, check_start
 from agent.sph.params import Border, SPHParams
 from agent.sph.particle import HEADING, SPEED, VX, VY, Control, X, Y, initial_state
 from agent.sph.radio import PERFECT, RadioModel
@@ -20,7 +21,8 @@ from agent.sph.robot import POINT, RobotModel, body_centres, check_layout, initi
 class Setup:
     """A deterministic set-up: ids, initial states (N, NFIELDS), a Control per particle, class labels, and
     the particles' body and drive (`robot`, agent/sph/robot.py; `with_robot` gives another) and what their
-    radios make of the states they receive (`radio`, agent/sph/radio.py)."""
+    radios make of the states they receive (`radio`, agent/sph/radio.py) and the domain's static obstacles
+    (`obstacles`, agent/sph/obstacles.py; `with_obstacles` checks them against the start layout)."""
 
     ids: np.ndarray
     states: np.ndarray
@@ -30,6 +32,7 @@ class Setup:
     params: SPHParams
     robot: RobotModel = POINT
     radio: RadioModel = PERFECT
+    obstacles: tuple[Obstacle, ...] = ()
 
     def with_robot(self, robot: RobotModel) -> Setup:
         """This set-up with `robot` bodies: their initial poses, checked against the fluid's speed limit and
@@ -39,7 +42,31 @@ class Setup:
         for row in states:
             row[HEADING], row[SPEED] = initial_pose(row[VX], row[VY], robot)
         check_layout(body_centres(states, robot), robot)
+        if self.obstacles:
+            check_start(body_centres(states, robot), self.obstacles, robot.radius)
         return replace(self, states=states, robot=robot)
+
+    def with_obstacles(self, obstacles: tuple[Obstacle, ...]) -> Setup:
+        """This set-up among `obstacles`: no body of the start layout may overlap one (ValueError naming it)."""
+        check_start(body_centres(self.states, self.robot), obstacles, self.robot.radius)
+        return replace(self, obstacles=tuple(obstacles))
+
+    def obstacle_dicts(self) -> list[dict]:
+        """The obstacles as the agent spec, the MCAP metadata and the scenario files write them."""
+        return [o.as_dict() for o in self.obstacles]
+
+    def moved_to(self, centre: tuple[float, float], margin: float = 3.0) -> Setup:
+        """This set-up with its start layout moved to be centred on `centre` [m] (a scenario's `start`), the
+        domain grown to hold it with `margin` m to spare."""
+        states = np.array(self.states, dtype=float)
+        shift = np.asarray(centre, dtype=float) - states[:, [X, Y]].mean(axis=0)
+        states[:, X] += shift[0]
+        states[:, Y] += shift[1]
+        xmin, xmax, ymin, ymax = self.params.domain
+        lo = states[:, [X, Y]].min(axis=0) - margin
+        hi = states[:, [X, Y]].max(axis=0) + margin
+        domain = (min(xmin, lo[0]), max(xmax, hi[0]), min(ymin, lo[1]), max(ymax, hi[1]))
+        return replace(self, states=states, params=replace(self.params, domain=domain))
 
 
 def lattice(n: int, columns: int, spacing: float = 1.0, origin: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:

@@ -1,5 +1,5 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
-//! sph and robot check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command, fill,
+//! sph, robot and obstacle check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command, fill,
 //! route, ctl and event are the one implementation of those records, which the Python side wraps (agent/protocol/
 //! wire.py, keys.py, command.py, ctl.py, events.py, agent/fill.py, coordinator/control/route.py through the
 //! extension module agent/native/python); spec and final_report pair with agent/protocol/spec.py and report.py.
@@ -11,6 +11,7 @@ pub mod event;
 pub mod fill;
 pub mod final_report;
 pub mod keys;
+pub mod obstacle;
 pub mod radio;
 pub mod relay;
 pub mod robot;

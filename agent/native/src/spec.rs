@@ -7,11 +7,13 @@ mod fields;
 use serde_json::Value;
 
 use crate::keys;
+use crate::obstacle::Obstacle;
 use crate::radio::Radio;
 use crate::robot::Robot;
 use crate::sph::{Control, Params};
 use fields::{
-    err, number, only, parse_control, parse_neighbours, parse_params, parse_radio, parse_robot, positive, string,
+    err, number, only, parse_control, parse_neighbours, parse_obstacles, parse_params, parse_radio, parse_robot,
+    positive, string,
 };
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,6 +51,8 @@ pub struct AgentSpec {
     /// What this agent's radio and localisation make of the states it receives (agent/sph/radio.py); perfect
     /// unless told
     pub radio: Radio,
+    /// The domain's static obstacles (agent/sph/obstacles.py): discs and simple polygons; none unless told
+    pub obstacles: Vec<Obstacle>,
 }
 
 const FIELDS: &[&str] = &[
@@ -71,6 +75,7 @@ const FIELDS: &[&str] = &[
     "neighbours",
     "robot",
     "radio",
+    "obstacles",
 ];
 
 impl AgentSpec {
@@ -165,6 +170,7 @@ impl AgentSpec {
             neighbours: parse_neighbours(obj.get("neighbours"))?,
             robot,
             radio,
+            obstacles: parse_obstacles(obj.get("obstacles"))?,
         })
     }
 }
@@ -256,5 +262,48 @@ mod tests {
         }
         let lossy_async = with(r#"{"loss":0.1}"#).replace("\"steps\":10", "\"steps\":10,\"mode\":\"async\"");
         assert!(AgentSpec::from_json(&lossy_async).unwrap_err().contains("lockstep only"));
+    }
+}
+
+#[cfg(test)]
+mod obstacle_tests {
+    use super::*;
+    use crate::obstacle::Obstacle;
+
+    const GOOD: &str = r#"{"run":"r1","id":3,"connect":["tcp/127.0.0.1:7447"],"steps":10,"initial":[1,2,0.5,0]}"#;
+
+    fn with(o: &str) -> String {
+        GOOD.replace("\"steps\":10", &format!("\"steps\":10,\"obstacles\":{o}"))
+    }
+
+    #[test]
+    fn obstacles() {
+        assert!(AgentSpec::from_json(GOOD).unwrap().obstacles.is_empty());
+        let s = AgentSpec::from_json(&with(
+            r#"[{"kind":"circle","centre":[4,5],"radius":0.5},{"kind":"polygon","vertices":[[0,0],[1,0],[1,1]]}]"#,
+        ))
+        .unwrap();
+        assert_eq!(
+            s.obstacles,
+            vec![
+                Obstacle::Circle { x: 4.0, y: 5.0, radius: 0.5 },
+                Obstacle::Polygon(vec![(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)])
+            ]
+        );
+        for (bad, names) in [
+            ("{}", "obstacles must be a list"),
+            (r#"[{"kind":"square"}]"#, "obstacles[0].kind"),
+            (r#"[{"kind":"circle","centre":[4,5],"radius":0}]"#, "obstacles[0].radius"),
+            (r#"[{"kind":"circle","centre":[4],"radius":1}]"#, "obstacles[0].centre"),
+            (r#"[{"kind":"circle","radius":1}]"#, "obstacles[0].centre"),
+            (r#"[{"kind":"circle","centre":[4,5],"radius":1,"height":2}]"#, "obstacles[0].\"height\""),
+            (r#"[{"kind":"polygon","vertices":[[0,0],[1,0]]}]"#, "obstacles[0].vertices"),
+            (r#"[{"kind":"polygon","vertices":[[0,0],[1,1],[1,0],[0,1]]}]"#, "intersects itself"),
+            (r#"[{"kind":"polygon","vertices":[[0,0],[1,1],[2,2]]}]"#, "no area"),
+            (r#"[{"kind":"polygon","vertices":[[0,0],[1,"a"],[2,2]]}]"#, "obstacles[0].vertices"),
+        ] {
+            let e = AgentSpec::from_json(&with(bad)).unwrap_err();
+            assert!(e.contains(names), "{bad}: {e}");
+        }
     }
 }

@@ -7,6 +7,7 @@
 
 use std::f64::consts::PI;
 
+use crate::obstacle::{self, Obstacle};
 use crate::robot::{self, Kind, Robot};
 
 /// State layout (agent/sph/particle.py): position, velocity, the lagged rho/p/stress, frozen flag, a robot's
@@ -148,8 +149,16 @@ fn body_force(x: f64, y: f64, c: &Control) -> (f64, f64) {
 }
 
 /// Next state of one particle (particle.py: step_particle). `neighbours` sorted by id, self excluded; a
-/// robot takes the SPH velocity update as its desired velocity (robot.rs).
-pub fn step_particle(own: &State, neighbours: &[State], control: &Control, params: &Params, robot: &Robot) -> State {
+/// robot takes the SPH velocity update as its desired velocity (robot.rs); `obstacles` push its body away
+/// (obstacle.rs; an empty list costs one length check).
+pub fn step_particle(
+    own: &State,
+    neighbours: &[State],
+    control: &Control,
+    params: &Params,
+    robot: &Robot,
+    obstacles: &[Obstacle],
+) -> State {
     if own[FROZEN] != 0.0 {
         return *own;
     }
@@ -212,6 +221,11 @@ pub fn step_particle(own: &State, neighbours: &[State], control: &Control, param
         acc_x += tx;
         acc_y += ty;
     }
+    if !obstacles.is_empty() {
+        let (ox, oy) = obstacle_push(own, obstacles, params, robot);
+        acc_x += ox;
+        acc_y += oy;
+    }
 
     let mut new = *own;
     new[VX] = own[VX] + params.dt * acc_x;
@@ -243,6 +257,22 @@ pub fn step_particle(own: &State, neighbours: &[State], control: &Control, param
         }
     }
     new
+}
+
+/// The obstacles' boundary force on the body of `own` (particle.py: obstacle_push): from its body centre,
+/// beginning OBSTACLE_MARGIN h plus a robot's braking distance beyond its radius, of strength v_max^2 (the robot's; the fluid's for a point),
+/// from the edges within the kernel support.
+fn obstacle_push(own: &State, obstacles: &[Obstacle], params: &Params, robot: &Robot) -> (f64, f64) {
+    let (mut cx, mut cy) = (own[X], own[Y]);
+    if robot.kind == Kind::Unicycle {
+        let heading = own[HEADING];
+        (cx, cy) = (cx - robot.offset * heading.cos(), cy - robot.offset * heading.sin());
+    }
+    let top = if robot.kind == Kind::Point { params.v_max } else { robot.v_max };
+    // a robot's drive brakes at a_max: the force begins its braking distance earlier (a point stops at once)
+    let braking = if robot.kind == Kind::Point { 0.0 } else { robot.v_max * robot.v_max / (2.0 * robot.a_max) };
+    let r0 = robot.radius + obstacle::OBSTACLE_MARGIN * params.h + braking;
+    obstacle::obstacle_acceleration(cx, cy, obstacles, r0, top * top, params.support())
 }
 
 fn cap_speed(s: &mut State, params: &Params) {
@@ -282,7 +312,7 @@ mod tests {
     fn lone_particle_moves_ballistically() {
         let p = Params::default();
         let own = initial_state(10.0, 10.0, 1.0, 0.0, &p, &Robot::default());
-        let next = step_particle(&own, &[], &Control::default(), &p, &Robot::default());
+        let next = step_particle(&own, &[], &Control::default(), &p, &Robot::default(), &[]);
         assert_eq!(next[X], 10.0 + 0.01 * 1.0);
         assert_eq!(next[RHO], 1.0 / PI);
     }
@@ -293,8 +323,8 @@ mod tests {
         let pt = Robot::default();
         let a = initial_state(10.0, 10.0, 0.5, 0.0, &p, &pt);
         let b = initial_state(10.8, 10.3, -0.2, 0.1, &p, &pt);
-        let na = step_particle(&a, &[b], &Control::default(), &p, &pt);
-        let nb = step_particle(&b, &[a], &Control::default(), &p, &pt);
+        let na = step_particle(&a, &[b], &Control::default(), &p, &pt, &[]);
+        let nb = step_particle(&b, &[a], &Control::default(), &p, &pt, &[]);
         let momentum = (na[VX] - a[VX]) + (nb[VX] - b[VX]);
         assert!(momentum.abs() < 1e-15);
     }

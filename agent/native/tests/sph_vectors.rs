@@ -8,6 +8,7 @@
 #[allow(dead_code)]
 mod common;
 
+use fluidswarm_agent::obstacle::Obstacle;
 use fluidswarm_agent::robot::{Kind, Robot};
 use fluidswarm_agent::sph::{step_particle, Control, Params, State, NFIELDS};
 use serde_json::Value;
@@ -74,6 +75,21 @@ fn control(c: &Value) -> Control {
     }
 }
 
+fn obstacles(list: &Value) -> Vec<Obstacle> {
+    let pt = |p: &Value| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+    let list = list.as_array().map(|a| a.as_slice()).unwrap_or_default();
+    list.iter()
+        .map(|o| match o["kind"].as_str() {
+            Some("circle") => {
+                let (x, y) = pt(&o["centre"]);
+                Obstacle::Circle { x, y, radius: f(o, "radius") }
+            }
+            Some("polygon") => Obstacle::Polygon(o["vertices"].as_array().unwrap().iter().map(pt).collect()),
+            other => panic!("obstacle kind {other:?}"),
+        })
+        .collect()
+}
+
 #[test]
 fn the_step_matches_the_numpy_oracle() {
     let cases = common::load("sph_steps.json");
@@ -91,6 +107,7 @@ fn the_step_matches_the_numpy_oracle() {
             &control(&case["control"]),
             &params(&case["params"]),
             &robot,
+            &obstacles(&case["obstacles"]),
         );
         let want = state(&case["next"]);
         for k in 0..NFIELDS {
@@ -99,4 +116,6 @@ fn the_step_matches_the_numpy_oracle() {
         }
     }
     assert_eq!(kinds.len(), 3, "every robot kind is stepped: {kinds:?}");
+    let among = cases.iter().filter(|c| c["obstacles"].as_array().is_some_and(|a| !a.is_empty())).count();
+    assert!(among >= 18, "steps beside obstacles: {among}");
 }

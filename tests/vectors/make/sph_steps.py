@@ -4,7 +4,8 @@ neighbours in, the next state out. agent/native/tests/sph_vectors.rs checks the 
 
 Seeded: jittered lattices around the particle (some neighbours beyond the support, some frozen), every
 border mode, drag, push, viscosity, a frozen particle, one leaving the domain, and the three robot kinds
-(bodies close enough to touch)."""
+(bodies close enough to touch), each also beside obstacles (a disc and a concave polygon, edges within and beyond
+the sensing range and the boundary force's reach)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from dataclasses import asdict
 
 import numpy as np
 
+from agent.sph.obstacles import Circle, Obstacle, Polygon
 from agent.sph.params import SPHParams
 from agent.sph.particle import FROZEN, HEADING, NFIELDS, RHO, SPEED, VX, VY, Control, step_particle
 from agent.sph.robot import RobotModel
@@ -40,6 +42,7 @@ def _case(
     spread=2.5,
     shift=0.0,
     own_set: dict[int, float] | None = None,
+    obstacles: tuple[Obstacle, ...] = (),
 ):
     own = _neighbourhood(rng, np.asarray(own_xy, float), 1, 0.0, params.rho0)[0]
     for field, value in (own_set or {}).items():
@@ -49,7 +52,7 @@ def _case(
     if robot.kind == "point":
         own[HEADING] = own[SPEED] = 0.0
         nb[:, HEADING] = nb[:, SPEED] = 0.0
-    new = step_particle(own, nb, control, params, robot)
+    new = step_particle(own, nb, control, params, robot, obstacles)
     p = asdict(params)
     p["domain"] = list(p["domain"])
     return {
@@ -60,6 +63,7 @@ def _case(
         "own": own.tolist(),
         "neighbours": nb.tolist(),
         "next": new.tolist(),
+        "obstacles": [o.as_dict() for o in obstacles],
     }
 
 
@@ -94,4 +98,18 @@ def sph_step_vectors() -> list[dict]:
         for k in range(4):
             control = Control(wx=31.0 + k, wy=14.0, s=1.0, alpha=20.0)
             out.append(_case(f"{kind}_{k}", rng, params, control, robot, mid, spread=0.9 if k % 2 else 2.5))
+    # Beside obstacles: the particle 0.27-0.4 m from a disc's edge, from an L-shaped polygon's sides and its
+    # concave corner (two sides push), from a convex vertex; a far wall (beyond r0 and the sensing range).
+    ell = Polygon(((30.3, 14.0), (32.0, 14.0), (32.0, 14.7), (30.6, 14.7), (30.6, 16.5), (30.3, 16.5)))
+    far = Polygon(((40.0, 10.0), (41.0, 10.0), (41.0, 20.0)))
+    disc = Circle(29.0, 15.0, 0.7)
+    spots = ((30.0, 15.0), (30.95, 15.05), (31.0, 14.4 - 0.75), (29.95, 13.8), (30.0, 16.0), (29.6, 15.5))
+    for kind in ("point", "holonomic", "unicycle"):
+        robot = RobotModel(kind=kind)
+        params = SPHParams(drag=0.2)
+        for k, spot in enumerate(spots):
+            control = Control(wx=31.0, wy=15.0, s=1.0, alpha=20.0 * (k % 2))
+            out.append(
+                _case(f"{kind}_obstacles_{k}", rng, params, control, robot, spot, n=8, obstacles=(disc, ell, far))
+            )
     return out

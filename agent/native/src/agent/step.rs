@@ -18,7 +18,8 @@ impl AgentCore {
             None => self.spec.control,
         };
         self.counters.neighbours += sph::interacting(&self.state, neighbours, &self.params).count() as u64;
-        self.state = sph::step_particle(&self.state, neighbours, &control, &self.params, &self.spec.robot);
+        self.state =
+            sph::step_particle(&self.state, neighbours, &control, &self.params, &self.spec.robot, &self.spec.obstacles);
         self.step += 1;
         self.last_step_done = now;
         self.update_cells();

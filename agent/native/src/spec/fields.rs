@@ -2,6 +2,8 @@
 
 use serde_json::{Map, Value};
 
+use crate::fill;
+use crate::obstacle::{Obstacle, MAX_VERTICES};
 use crate::radio::{Radio, MAX_LATENCY};
 use crate::robot::{Kind, Robot};
 use crate::sph::{Control, Params};
@@ -233,4 +235,63 @@ pub(super) fn parse_radio(v: Option<&Value>) -> Result<Radio, String> {
         };
     }
     Ok(r)
+}
+
+/// [x, y], both finite numbers.
+fn point(v: &Value) -> Option<(f64, f64)> {
+    match v.as_array().map(|a| a.as_slice()) {
+        Some([x, y]) => Some((number(x)?, number(y)?)),
+        _ => None,
+    }
+}
+
+/// `obstacles` (agent/sph/obstacles.py: obstacle_from and its checks): a list of {"kind": "circle", "centre":
+/// [x, y], "radius": r > 0} and {"kind": "polygon", "vertices": [[x, y], ...]} (3 to MAX_VERTICES, with an
+/// area, no two sides crossing).
+pub(super) fn parse_obstacles(v: Option<&Value>) -> Result<Vec<Obstacle>, String> {
+    let Some(v) = v else { return Ok(Vec::new()) };
+    let Some(list) = v.as_array() else { return err(format!("obstacles must be a list of obstacles, got {v}")) };
+    let mut out = Vec::with_capacity(list.len());
+    for (k, item) in list.iter().enumerate() {
+        let at = format!("obstacles[{k}]");
+        let Some(obj) = item.as_object() else { return err(format!("{at} must be an object, got {item}")) };
+        let kind = obj.get("kind").and_then(|k| k.as_str());
+        match kind {
+            Some("circle") => {
+                only(obj, &["kind", "centre", "radius"], &format!("{at}."))?;
+                let Some((x, y)) = obj.get("centre").and_then(point) else {
+                    return err(format!("{at}.centre must be [x, y] finite numbers"));
+                };
+                let radius = match obj.get("radius").and_then(number) {
+                    Some(r) if r > 0.0 => r,
+                    _ => return err(format!("{at}.radius must be a finite number > 0")),
+                };
+                out.push(Obstacle::Circle { x, y, radius });
+            }
+            Some("polygon") => {
+                only(obj, &["kind", "vertices"], &format!("{at}."))?;
+                let raw = obj.get("vertices").and_then(|v| v.as_array());
+                let vertices: Option<Vec<(f64, f64)>> = raw.map(|a| a.iter().map(point).collect()).unwrap_or(None);
+                let vertices = match vertices {
+                    Some(vs) if (3..=MAX_VERTICES).contains(&vs.len()) => vs,
+                    _ => {
+                        return err(format!("{at}.vertices must be a list of 3 to {MAX_VERTICES} [x, y] finite points"))
+                    }
+                };
+                let n = vertices.len();
+                let area2: f64 = (0..n)
+                    .map(|k| vertices[k].0 * vertices[(k + 1) % n].1 - vertices[(k + 1) % n].0 * vertices[k].1)
+                    .sum();
+                if fill::edges_cross(std::slice::from_ref(&vertices)) {
+                    return err(format!("{at}.vertices: the polygon intersects itself (two sides cross)"));
+                }
+                if area2 == 0.0 {
+                    return err(format!("{at}.vertices: the polygon has no area"));
+                }
+                out.push(Obstacle::Polygon(vertices));
+            }
+            _ => return err(format!("{at}.kind must be one of ('circle', 'polygon'), got {:?}", obj.get("kind"))),
+        }
+    }
+    Ok(out)
 }
