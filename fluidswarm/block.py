@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from agent.sph.obstacles import Obstacle
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from fluidswarm.run import Run, SwarmPlan, Sync
@@ -20,7 +21,8 @@ class Block:
     started on this host (None: all); `record` an MCAP file to write (None: none); `reference`: compare the
     final states with the per-particle reference driver (`figures["max_position_error"]` [m]); `robot` the
     particles' body and drive (agent/sph/robot.py; checked against the block by `setup()` before the run);
-    `radio` what their radios make of the states they receive (agent/sph/radio.py)."""
+    `radio` what their radios make of the states they receive (agent/sph/radio.py); `obstacles` the static
+    obstacles in its domain (agent/sph/obstacles.py; checked against the block's start layout)."""
 
     agents: int
     steps: int
@@ -33,6 +35,7 @@ class Block:
     kind: str = "launch"
     robot: RobotModel = POINT
     radio: RadioModel = PERFECT
+    obstacles: tuple[Obstacle, ...] = ()
 
     def make_setup(self):
         """The block with its robots (ValueError naming the robot's key when they do not fit it)."""
@@ -40,6 +43,7 @@ class Block:
 
         setup = spread_block(self.agents)
         setup = setup if self.robot == POINT else setup.with_robot(self.robot)
+        setup = setup.with_obstacles(self.obstacles) if self.obstacles else setup
         return setup if self.radio == PERFECT else replace(setup, radio=self.radio)
 
     def drive(self, run: Run) -> None:
@@ -54,6 +58,7 @@ class Block:
                     "params": setup.params.as_dict(),
                     "robot": setup.robot.as_dict(),
                     "radio": setup.radio.as_dict(),
+                    "obstacles": setup.obstacle_dicts(),
                 },
                 setup.params.dt,
                 path=self.record,
@@ -78,7 +83,9 @@ class Block:
 
         s, r = self.setup, run.record
         ids = self.ids if self.ids is not None else [int(i) for i in s.ids]
-        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params, s.robot, s.radio).run(self.steps)
+        reference = PerParticleDriver(s.ids, s.states, s.controls, s.params, s.robot, s.radio, s.obstacles).run(
+            self.steps
+        )
         missing = [i for i in ids if i not in r.finals or not r.finals[i].done]
         r.figures["agents_missing"] = len(missing)
         if missing:

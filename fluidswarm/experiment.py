@@ -19,7 +19,8 @@ DEFAULT_STEPS = 400
 
 def experiment_setup(sc: Scenario, agents: int):
     """The scenario's set-up (agent/sph/setups.py) for `agents` particles, with its [sph] and dt overrides and its
-    [robot] (a UserError naming the key when the robots do not fit it) and its [radio]."""
+    [robot] (a UserError naming the key when the robots do not fit it), its [radio], its `start` and its
+    [[obstacle]] tables (a UserError naming the obstacle that overlaps the start layout)."""
     from agent.sph import setups
     from agent.sph.robot import POINT
 
@@ -30,10 +31,12 @@ def experiment_setup(sc: Scenario, agents: int):
         setup = base(agents, params=setup.params.with_overrides(sc.sph, sc.dt))
     if not sc.radio.is_perfect:
         setup = replace(setup, radio=sc.radio)
-    if sc.robot == POINT:
-        return setup
+    if sc.start is not None:
+        setup = setup.moved_to(sc.start)
     try:
-        return setup.with_robot(sc.robot)
+        if sc.robot != POINT:
+            setup = setup.with_robot(sc.robot)
+        return setup.with_obstacles(sc.obstacles) if sc.obstacles else setup
     except ValueError as exc:
         key, _, problem = str(exc).partition(": ")
         raise UserError(f"{sc.path}: key '{key}': {problem}") from None
@@ -67,6 +70,7 @@ class Experiment:
             "params": setup.params.as_dict(),
             "robot": setup.robot.as_dict(),
             "radio": setup.radio.as_dict(),
+            "obstacles": setup.obstacle_dicts(),
             "agent_ids": [int(i) for i in setup.ids],
             "failures": [f.__dict__ for f in sc.failures],
         }

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from agent.protocol.errors import UserError
+from agent.sph.obstacles import Obstacle
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator import handover
@@ -128,6 +129,9 @@ class FileImitation:
     kind: str = "imitation"
     robot: RobotModel = POINT
     radio: RadioModel = PERFECT
+    obstacles: tuple[Obstacle, ...] = ()  # the domain's static obstacles (agent/sph/obstacles.py)
+    start: tuple[float, float] | None = None  # the start layout's centre [m]; None: the silhouette's interior
+    source: str = "--obstacles"  # what bad obstacles or a bad start are named after (a scenario file)
 
     def __post_init__(self):
         if self.frame_steps > 0:
@@ -150,11 +154,15 @@ class FileImitation:
         )
         if self.sph or self.dt:
             im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
+        if self.start is not None:
+            im.setup = im.setup.moved_to(self.start)
         if self.robot != POINT:
             try:  # before the recorder and the agents start
                 im.setup = im.setup.with_robot(self.robot)
             except ValueError as exc:
                 raise UserError(f"--robot: {exc}") from None
+        if self.obstacles:
+            im.setup = self._among_obstacles(im)
         o = run.options
         if self.radio != PERFECT:
             im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
@@ -176,6 +184,7 @@ class FileImitation:
             "params": im.setup.params.as_dict(),
             "robot": im.setup.robot.as_dict(),
             "radio": im.setup.radio.as_dict(),
+            "obstacles": im.setup.obstacle_dicts(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),
             "failures": [getattr(f, "__dict__", str(f)) for f in o.failures],
@@ -199,6 +208,27 @@ class FileImitation:
                 joiners_at=(first.x, first.y),
             )
         )
+
+    def _among_obstacles(self, im):
+        """The set-up among the obstacles: refused (one line naming the obstacle) when one overlaps a start body
+        or they cover more than MAX_COVERED of the target silhouette."""
+        from agent.sph.obstacles import MAX_COVERED, covered_share
+
+        try:
+            setup = im.setup.with_obstacles(self.obstacles)
+        except ValueError as exc:
+            key, _, problem = str(exc).partition(": ")
+            raise UserError(f"{self.source}: key '{key}': {problem}") from None
+        vs, us = np.nonzero(im.mask)
+        pick = np.linspace(0, len(us) - 1, min(len(us), 4000)).astype(int) if len(us) else np.array([], int)
+        points = im.transform.to_domain(np.stack([us[pick] + 0.5, vs[pick] + 0.5], axis=1)) if len(pick) else []
+        share = covered_share(points, self.obstacles)
+        if share > MAX_COVERED:
+            raise UserError(
+                f"{self.source}: key 'obstacle': the obstacles cover {share:.0%} of the target silhouette "
+                f"(at most {MAX_COVERED:.0%}: the swarm must have room to form it)"
+            )
+        return setup
 
     def score(self, run: Run) -> None:
         record, im = run.record, self.im

@@ -134,6 +134,9 @@ def print_lines(r: RunRecord) -> None:
     if r.collisions is not None:
         print(f"collisions={r.collisions}")
         print(f"min_separation_m={r.min_separation_m:.4f}")
+    if r.obstacle_penetrations is not None:
+        print(f"obstacle_penetrations={r.obstacle_penetrations}")
+        print(f"min_obstacle_distance_m={r.min_obstacle_distance_m:.4f}")
     print(f"steps_per_second={r.steps_per_second:.2f}")
     if r.realtime_factor is not None:
         print(f"realtime_factor={r.realtime_factor:.3f}")

@@ -144,6 +144,9 @@ class RunRecord:
     radio: dict | None = None  # the imperfect radio's loss, latency, noise, seed (agent/sph/radio.py); None: perfect
     collisions: int | None = None
     min_separation_m: float | None = None
+    obstacles: int = 0  # how many static obstacles the domain holds (agent/sph/obstacles.py)
+    obstacle_penetrations: int | None = None  # bodies overlapping an obstacle, once per agent and episode
+    min_obstacle_distance_m: float | None = None  # closest approach of a body centre to an obstacle
     figures: dict[str, float | int | str] = field(default_factory=dict)
     realtime_factor: float | None = None  # simulated seconds / wall seconds of the swarm's run
     subject: str = ""  # imitate --camera: "hand" | "person" (and how it was chosen)
@@ -396,6 +399,12 @@ def robot_figures(mcap: Path | None, setup) -> dict:
     if measured:
         out["collisions"] = int(measured["collisions"])
         out["min_separation_m"] = float(measured["min_separation_m"])
+        if "obstacle_penetrations" in measured:
+            out["obstacle_penetrations"] = int(measured["obstacle_penetrations"])
+            out["min_obstacle_distance_m"] = float(measured["min_obstacle_distance_m"])
+    obstacles = getattr(setup, "obstacles", ())
+    if obstacles:
+        out["obstacles"] = len(obstacles)
     return out
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES, SyncMode
+from agent.sph.obstacles import Obstacle, obstacles_from
 from agent.sph.params import SPHParams
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
@@ -87,6 +88,8 @@ class PassCriteria:
     max_stall_seconds    longest wall-clock gap between two consecutive steps of the swarm
     min_finished         share of the agents not killed on purpose that finish every step
     complete_mcap        the MCAP holds every alive agent's state at every step (`replay --check`)
+    no_collisions        no two bodies touched (collisions = 0, fluidswarm/recording/contacts.py)
+    no_obstacle_penetrations  no body overlapped an obstacle (obstacle_penetrations = 0)
     """
 
     min_fidelity_iou: float = 0.0
@@ -97,6 +100,8 @@ class PassCriteria:
     max_stall_seconds: float = 0.0
     min_finished: float = 0.0
     complete_mcap: bool = False
+    no_collisions: bool = False
+    no_obstacle_penetrations: bool = False
 
 
 @dataclass(frozen=True)
@@ -119,6 +124,8 @@ class Scenario:
     sph: dict = field(default_factory=dict)
     robot: RobotModel = POINT  # [robot]: kind, radius, v_max, a_max, omega_max, offset (agent/sph/robot.py)
     radio: RadioModel = PERFECT  # [radio]: loss, latency, noise (agent/sph/radio.py), seeded from `seed`
+    obstacles: tuple[Obstacle, ...] = ()  # [[obstacle]]: circles and polygons (agent/sph/obstacles.py), domain m
+    start: tuple[float, float] | None = None  # the start layout's centre [m] (None: the experiment's own)
     failures: tuple[Failure, ...] = ()
     passing: PassCriteria = PassCriteria()
     description: str = ""
@@ -184,6 +191,8 @@ def load_scenario(path: str | Path) -> Scenario:
         "sph",
         "robot",
         "radio",
+        "obstacle",
+        "start",
         "failures",
         "pass",
     }
@@ -252,6 +261,16 @@ def load_scenario(path: str | Path) -> Scenario:
 
     kw["radio"] = radio_model(_typed(file, "radio", raw.get("radio", {}), dict), kw.get("seed", 0), where=file)
     check_lockstep(kw["radio"], kw.get("sync", "lockstep"), f"{file}: key 'radio'")
+    kw["obstacles"] = scenario_obstacles(file, raw.get("obstacle", []))
+    if "start" in raw:
+        start = raw["start"]
+        if (
+            not isinstance(start, list)
+            or len(start) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in start)
+        ):
+            raise UserError(f"{file}: key 'start': must be [x, y] finite numbers (m), got {start!r}")
+        kw["start"] = (float(start[0]), float(start[1]))
     failures = []
     raw_f = raw.get("failures", [])
     if not isinstance(raw_f, list):
@@ -284,6 +303,17 @@ def load_scenario(path: str | Path) -> Scenario:
             raise UserError(f"{file}: key 'pass.{k}': must be >= 0, got {v}")
     kw["passing"] = PassCriteria(**crit)
     return Scenario(**kw)
+
+
+def scenario_obstacles(file: str, tables) -> tuple[Obstacle, ...]:
+    """The [[obstacle]] tables as obstacles (agent/sph/obstacles.py); bad input names the key."""
+    if not isinstance(tables, list):
+        raise UserError(f"{file}: key 'obstacle': expected an array of tables ([[obstacle]])")
+    try:
+        return obstacles_from(tables, "obstacle")
+    except ValueError as exc:
+        key, _, problem = str(exc).partition(": ")
+        raise UserError(f"{file}: key '{key}': {problem}") from None
 
 
 def scenario_robot(file: str, table: dict, kind: str | None = None) -> RobotModel:

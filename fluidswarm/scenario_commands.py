@@ -154,6 +154,9 @@ def kind_for(sc: Scenario, agents: int):
         drop,
         robot=sc.robot,
         radio=sc.radio,
+        obstacles=sc.obstacles,
+        start=sc.start,
+        source=str(sc.path),
     )
 
 
@@ -213,12 +216,15 @@ def scenario_figures(r: RunRecord) -> dict:
 
 
 def robot_lines(r: RunRecord) -> dict:
-    """robot=, and what the recorder measured on the bodies (collisions=, min_separation_m=) when it did."""
+    """robot=, and what the recorder measured on the bodies (collisions=, min_separation_m=; among obstacles
+    obstacle_penetrations=, min_obstacle_distance_m=) when it did."""
     f: dict = {"robot": r.robot}
     if r.radio:
         f.update({f"radio_{k}": v for k, v in r.radio.items() if k != "seed"})
     if r.collisions is not None:
         f.update(collisions=r.collisions, min_separation_m=r.min_separation_m)
+    if r.obstacle_penetrations is not None:
+        f.update(obstacle_penetrations=r.obstacle_penetrations, min_obstacle_distance_m=r.min_obstacle_distance_m)
     return f
 
 

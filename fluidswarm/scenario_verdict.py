@@ -61,4 +61,8 @@ def judge(sc: Scenario, record: RunRecord, out: Path, baseline: RunRecord | None
         need(finished_share >= crit.min_finished, f"finished_share {finished_share:.2f} < {crit.min_finished}")
     if crit.complete_mcap:
         need(complete, f"MCAP incomplete ({missing} missing states)")
+    if crit.no_collisions:
+        need(record.collisions == 0, f"collisions {record.collisions} (none allowed)")
+    if crit.no_obstacle_penetrations:
+        need(record.obstacle_penetrations == 0, f"obstacle_penetrations {record.obstacle_penetrations} (none allowed)")
     return record

@@ -8,6 +8,7 @@ from pathlib import Path
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES, NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.obstacle_option import add_obstacles_argument, obstacles_option
 from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
@@ -40,6 +41,7 @@ def register(sub) -> None:
     add_live_argument(p)
     add_robot_argument(p)
     add_radio_arguments(p)
+    add_obstacles_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_launch)
 
@@ -55,6 +57,7 @@ def register(sub) -> None:
     _add_auth_file_argument(p)
     add_robot_argument(p)
     add_radio_arguments(p)
+    add_obstacles_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_verify)
 
@@ -148,6 +151,9 @@ def _check_block(kind) -> None:
     try:
         kind.make_setup()
     except ValueError as exc:
+        key, _, problem = str(exc).partition(": ")
+        if key.startswith("obstacle["):  # agent/sph/setups.py with_obstacles: an obstacle on a start body
+            raise UserError(f"--obstacles: key '{key}': {problem}") from None
         raise UserError(f"--robot: {exc}") from None
 
 
@@ -174,6 +180,7 @@ def _launch(args) -> int:
         args.record,
         robot=robot_model(args.robot),
         radio=radio_model(radio_options(args)),
+        obstacles=obstacles_option(args.obstacles),
     )
     check_lockstep(kind.radio, args.mode, "--radio-*")
     _check_block(kind)
@@ -216,6 +223,7 @@ def _verify(args) -> int:
         kind="verify",
         robot=robot_model(args.robot),
         radio=radio_model(radio_options(args)),
+        obstacles=obstacles_option(args.obstacles),
     )
     _check_block(kind)
     with Run(kind, _options(args, "verify", args.timeout)) as run:

@@ -305,6 +305,7 @@ def run_swarm(
                 "robot": setup.robot.as_dict(),
                 # only an imperfect radio is written: a perfect one is the agent's default
                 **({} if setup.radio.is_perfect else {"radio": setup.radio.as_dict()}),
+                **({"obstacles": setup.obstacle_dicts()} if setup.obstacles else {}),
                 **(per_agent or {}).get(i, {}),
             }
             launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))

@@ -7,7 +7,7 @@ import argparse
 
 from agent.protocol.errors import UserError
 from coordinator.control.fidelity import format_fidelity
-from fluidswarm.recording.reader import completeness, finished, load_run, salvage_lines, salvaged
+from fluidswarm.recording.reader import completeness, finished, load_run, recorded_robots, salvage_lines, salvaged
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -55,6 +55,11 @@ def _main(args: argparse.Namespace) -> int:
         print(format_fidelity(result.fidelity))
     else:
         print("fidelity: the recording holds no target silhouette")
+    robots = recorded_robots(args.run)
+    for key in ("collisions", "min_separation_m", "obstacle_penetrations", "min_obstacle_distance_m"):
+        if robots and key in robots:  # what the recorder measured on the bodies (recording/contacts.py)
+            v = robots[key]
+            print(f"{key}={v:.4f}" if isinstance(v, float) else f"{key}={v}")
     for path in result.paths:
         print(f"wrote {path}")
     return 0

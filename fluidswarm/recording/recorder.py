@@ -29,6 +29,7 @@ from agent.protocol import keys
 from agent.protocol.errors import UserError
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
+from agent.sph.obstacles import Obstacle, obstacles_from
 from agent.sph.robot import POINT, RobotModel
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
@@ -44,6 +45,14 @@ def robot_of(metadata: dict) -> RobotModel:
         return RobotModel(**metadata.get("robot", {}))
     except (TypeError, ValueError):
         return POINT
+
+
+def obstacles_of(metadata: dict) -> tuple[Obstacle, ...]:
+    """The domain's obstacles (metadata `obstacles`, written by the run, agent/sph/obstacles.py); none without."""
+    try:
+        return obstacles_from(metadata.get("obstacles", []))
+    except ValueError:
+        return ()
 
 
 def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2) -> None:
@@ -104,8 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.image:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
-    robot = robot_of(metadata)
-    recorder = Recorder(args.run, writer, args.dt, None if robot.is_point else ContactCounter(robot))
+    robot, obstacles = robot_of(metadata), obstacles_of(metadata)
+    counting = not robot.is_point or obstacles
+    recorder = Recorder(args.run, writer, args.dt, ContactCounter(robot, obstacles) if counting else None)
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)
     session = zenoh.open(client_config([args.connect]))
     try:

@@ -291,7 +291,8 @@ class RunWriter:
 
     def write_robots(self, figures: dict) -> bool:
         """What a robot user measures (fluidswarm/recording/contacts.py: robot, radius_m, collisions,
-        min_separation_m) as metadata record `robots`."""
+        min_separation_m; among obstacles also obstacles, obstacle_penetrations, min_obstacle_distance_m) as
+        metadata record `robots`."""
         return self._submit(lambda: self._mcap.add_metadata("robots", encode_metadata(figures)))
 
     def write_command(self, t: float, command_json: str) -> bool:
