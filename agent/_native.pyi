@@ -129,3 +129,13 @@ REPORT_MAX_COUNT: int
 REPORT_MAX_ABS: float
 
 def report_decode(data: bytes) -> dict[str, Any] | None: ...
+
+# --- the agent's start-up spec (agent/protocol/spec.py) ---
+SPEC_FIELDS: list[str]
+SPEC_DEFAULT_TIMEOUT: float
+SPEC_DEFAULT_START_TIMEOUT: float
+SPEC_DEFAULT_RATE: float
+SPEC_DEFAULT_MAX_AGE: float
+
+def spec_encode(fields: dict[str, Any]) -> str: ...
+def spec_decode(text: str) -> dict[str, Any]: ...

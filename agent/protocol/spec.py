@@ -1,4 +1,7 @@
-"""What one agent process is told at start (its command line, as JSON), validated once at the edge.
+"""What one agent process is told at start (its command line, as JSON): a typed wrapper of the one
+implementation, the agent crate's spec.rs (through agent._native). `to_json` checks every field and writes it
+with the encoder the agent decodes with (`spec_encode`); `from_json` reads with the agent's own decoder
+(`spec_decode`): one set of checks, one set of defaults (the optional fields' come from the crate too).
 
 Besides its spec an agent reads only its environment's FLUIDSWARM_SECRET (the command key, when the spec's
 `secret` is empty) and FLUIDSWARM_ZENOH_USER / FLUIDSWARM_ZENOH_PASSWORD (its credentials, docs/security.md):
@@ -8,12 +11,10 @@ measured: docs/protocol.md, "Inside an agent process"); no other variable of our
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
-from agent.protocol.keys import MAX_AGENTS, valid_run_name
+from agent.records import native
 from agent.sph.obstacles import Obstacle, obstacles_from
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
@@ -43,7 +44,7 @@ class NeighbourTimeouts:
     exact       verify: never drop a neighbour that is merely slow (exactness with both cores busy)
     """
 
-    default: float = 2.0
+    default: float = native.SPEC_DEFAULT_TIMEOUT  # the agent's own default (spec.rs)
     imitation: float = 5.0
     benchmark: float = 10.0
     exact: float = 15.0
@@ -91,132 +92,48 @@ class AgentSpec:
     control: dict = field(default_factory=dict)
     params: dict = field(default_factory=dict)
     timeout: float = NEIGHBOUR_TIMEOUT.default
-    start_timeout: float = 120.0
+    start_timeout: float = native.SPEC_DEFAULT_START_TIMEOUT
     drop_out: float = 0.0
     secret: str = ""
     join: bool = False
     state_key_ids: bool = False
     mode: str = SyncMode.LOCKSTEP
-    rate: float = 12.0
-    max_age: float = 1.0
+    rate: float = native.SPEC_DEFAULT_RATE
+    max_age: float = native.SPEC_DEFAULT_MAX_AGE
     neighbours: list = field(default_factory=list)
     robot: dict = field(default_factory=dict)
     radio: dict = field(default_factory=dict)
     obstacles: list = field(default_factory=list)
 
     def to_json(self) -> str:
-        fields = asdict(self)
-        if not fields["radio"]:
-            del fields["radio"]  # a perfect radio is the default: the spec of a run without one is as before
-        if not fields["obstacles"]:
-            del fields["obstacles"]  # likewise an empty domain
-        return json.dumps(fields, separators=(",", ":"))
+        """The spec as the agent reads it; ValueError ("agent spec: <field> ...") if a field is malformed."""
+        return native.spec_encode(asdict(self))
 
     @classmethod
     def from_json(cls, text: str) -> AgentSpec:
-        try:
-            raw = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"agent spec: not JSON ({exc.msg})") from None
-        except RecursionError:  # found by fuzzing (tests/vectors/fuzz.json): deeper than json's stack
-            raise ValueError("agent spec: not JSON (nested too deep)") from None
-        if not isinstance(raw, dict):
-            raise ValueError("agent spec: must be a JSON object")  # noqa: TRY004  # callers catch ValueError: bad input
-        known = set(cls.__dataclass_fields__)
-        unknown = set(raw) - known
-        if unknown:
-            raise ValueError(f"agent spec: unknown field {min(unknown)!r}")
-        try:
-            spec = cls(**raw)
-        except TypeError as exc:
-            raise ValueError(f"agent spec: {exc}") from None
-        spec.validate()
-        return spec
+        """The spec in `text` as the agent reads it; ValueError naming the field if it would refuse it."""
+        return cls(**native.spec_decode(text))
 
     def validate(self) -> None:
-        if not isinstance(self.run, str) or not valid_run_name(self.run):
-            raise ValueError(f"agent spec: run {self.run!r} must be 1-64 letters, digits, '-' or '_'")
-        if not isinstance(self.id, int) or isinstance(self.id, bool) or not 0 <= self.id < MAX_AGENTS:
-            # only these ids have a key (keys.id_chunk); the native agent refuses the same (spec.rs)
-            raise ValueError(f"agent spec: id must be an integer in [0, {MAX_AGENTS}), got {self.id!r}")
-        if not isinstance(self.steps, int) or self.steps < 0:
-            raise ValueError(f"agent spec: steps must be a non-negative integer, got {self.steps!r}")
-        if (
-            not isinstance(self.initial, list)
-            or len(self.initial) != 4
-            or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in self.initial)
-        ):
-            raise ValueError(f"agent spec: initial must be [x, y, vx, vy] finite numbers, got {self.initial!r}")
-        if not isinstance(self.connect, list) or not all(isinstance(e, str) and e for e in self.connect):
-            raise ValueError("agent spec: connect must be a list of endpoints")
-        if self.mode not in MODES:
-            raise ValueError(f"agent spec: mode must be one of {MODES}, got {self.mode!r}")
-        for name in ("timeout", "start_timeout", "rate", "max_age"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"agent spec: {name} must be > 0, got {v!r}")
-        if not isinstance(self.drop_out, (int, float)) or not 0 <= self.drop_out < 1:
-            raise ValueError(f"agent spec: drop_out must be in [0, 1), got {self.drop_out!r}")
-        if not isinstance(self.neighbours, list) or not all(
-            isinstance(n, list)
-            and len(n) == 3
-            and isinstance(n[0], int)
-            and not isinstance(n[0], bool)
-            and 0 <= n[0] < MAX_AGENTS
-            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in n[1:])
-            for n in self.neighbours
-        ):
-            raise ValueError(
-                f"agent spec: neighbours must be a list of [id, x, y] (id in [0, {MAX_AGENTS}), x, y finite)"
-            )
-        self.robot_model().check_fits(self.sph_params().v_max)
-        radio = self.radio_model()
-        if self.mode == SyncMode.ASYNC and not radio.is_perfect:
-            raise ValueError("agent spec: radio: the imperfect radio is modelled in lockstep only (mode async)")
-        self.static_control()
-        self.obstacle_list()
+        """Every check the agent makes of its spec (ValueError naming the field)."""
+        self.to_json()
 
+    # The records inside, as the physics layer's objects (the reference drivers, coordinator/control/route.py):
+    # conversions of a spec the agent's decoder accepted, no checks of their own.
     def robot_model(self) -> RobotModel:
-        if not isinstance(self.robot, dict):
-            raise ValueError(f"agent spec: robot must be an object, got {self.robot!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
-        try:
-            return RobotModel(**self.robot)
-        except TypeError as exc:
-            raise ValueError(f"agent spec: robot: {exc}") from None
+        return RobotModel(**self.robot)
 
     def radio_model(self) -> RadioModel:
-        if not isinstance(self.radio, dict):
-            raise ValueError(f"agent spec: radio must be an object, got {self.radio!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
-        try:
-            return RadioModel(**self.radio)
-        except TypeError as exc:
-            raise ValueError(f"agent spec: radio: {exc}") from None
-        except ValueError as exc:
-            raise ValueError(f"agent spec: {exc}") from None
+        return RadioModel(**self.radio)
 
     def obstacle_list(self) -> tuple[Obstacle, ...]:
-        try:
-            return obstacles_from(self.obstacles, "obstacles")
-        except ValueError as exc:
-            raise ValueError(f"agent spec: {exc}") from None
+        return obstacles_from(self.obstacles, "obstacles")
 
     def sph_params(self) -> SPHParams:
-        if not isinstance(self.params, dict):
-            raise ValueError(f"agent spec: params must be an object, got {self.params!r}")  # noqa: TRY004  # spec errors are ValueErrors: one kind for the caller
         p = dict(self.params)
-        try:
-            if "domain" in p:
-                p["domain"] = tuple(p["domain"])
-            return SPHParams(**p)
-        except (TypeError, ValueError) as exc:  # SPHParams' own checks name the field (found by fuzzing)
-            raise ValueError(f"agent spec: params: {exc}") from None
+        if "domain" in p:
+            p["domain"] = tuple(p["domain"])
+        return SPHParams(**p)
 
     def static_control(self) -> Control:
-        try:
-            c = Control(**self.control)
-        except TypeError as exc:
-            raise ValueError(f"agent spec: control: {exc}") from None
-        for name, v in asdict(c).items():
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"agent spec: control.{name} must be a finite number, got {v!r}")
-        return c
+        return Control(**self.control)

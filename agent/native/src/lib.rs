@@ -1,8 +1,8 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
 //! sph, robot and obstacle check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command, fill,
-//! route, ctl and event are the one implementation of those records, which the Python side wraps (agent/protocol/
-//! wire.py, keys.py, command.py, ctl.py, events.py, agent/fill.py, coordinator/control/route.py through the
-//! extension module agent/native/python); spec and final_report pair with agent/protocol/spec.py and report.py.
+//! route, ctl, event, final_report and spec are the one implementation of those records, which the Python side
+//! wraps (agent/protocol/wire.py, keys.py, command.py, ctl.py, events.py, report.py, spec.py, agent/fill.py,
+//! coordinator/control/route.py through the extension module agent/native/python).
 
 pub mod agent;
 pub mod command;

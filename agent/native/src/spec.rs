@@ -1,7 +1,10 @@
-//! What one agent process is told at start (`--spec JSON`, written by swarmhost/launcher.py from
-//! agent/protocol/spec.py's `AgentSpec`). Validated here, once, at the edge: every error names the field.
-//! The field checks are in spec/fields.rs.
+//! What one agent process is told at start (`--spec JSON`): the one implementation of the record. The launcher
+//! (swarmhost/launcher.py) fills agent/protocol/spec.py's `AgentSpec` and encodes it here through agent._native
+//! (`from_value` checks every field, `to_json` writes it); the agent decodes it with `from_json`. Validated
+//! once, at the edge: every error names the field. The field checks are in spec/fields.rs, the encoder in
+//! spec/encode.rs.
 
+mod encode;
 mod fields;
 
 use serde_json::Value;
@@ -55,7 +58,13 @@ pub struct AgentSpec {
     pub obstacles: Vec<Obstacle>,
 }
 
-const FIELDS: &[&str] = &[
+/// The defaults of the optional fields, written once (agent/protocol/spec.py reads them through agent._native).
+pub const DEFAULT_TIMEOUT: f64 = 2.0;
+pub const DEFAULT_START_TIMEOUT: f64 = 120.0;
+pub const DEFAULT_RATE: f64 = 12.0;
+pub const DEFAULT_MAX_AGE: f64 = 1.0;
+
+pub const FIELDS: &[&str] = &[
     "run",
     "id",
     "connect",
@@ -80,10 +89,15 @@ const FIELDS: &[&str] = &[
 
 impl AgentSpec {
     pub fn from_json(text: &str) -> Result<AgentSpec, String> {
-        let raw: Value = match serde_json::from_str(text) {
-            Ok(v) => v,
-            Err(e) => return err(format!("not JSON ({e})")),
-        };
+        match serde_json::from_str(text) {
+            Ok(v) => AgentSpec::from_value(v),
+            Err(e) => err(format!("not JSON ({e})")),
+        }
+    }
+
+    /// The spec in a parsed JSON value (what `from_json` reads, and what the launcher's fields are before
+    /// they are encoded): every field checked.
+    pub fn from_value(raw: Value) -> Result<AgentSpec, String> {
         let obj = match raw {
             Value::Object(o) => o,
             _ => return err("must be a JSON object".into()),
@@ -158,15 +172,15 @@ impl AgentSpec {
             initial: [initial[0], initial[1], initial[2], initial[3]],
             control: parse_control(obj.get("control"))?,
             params,
-            timeout: positive(&obj, "timeout", 2.0)?,
-            start_timeout: positive(&obj, "start_timeout", 120.0)?,
+            timeout: positive(&obj, "timeout", DEFAULT_TIMEOUT)?,
+            start_timeout: positive(&obj, "start_timeout", DEFAULT_START_TIMEOUT)?,
             drop_out,
             secret,
             join,
             state_key_ids,
             mode,
-            rate: positive(&obj, "rate", 12.0)?,
-            max_age: positive(&obj, "max_age", 1.0)?,
+            rate: positive(&obj, "rate", DEFAULT_RATE)?,
+            max_age: positive(&obj, "max_age", DEFAULT_MAX_AGE)?,
             neighbours: parse_neighbours(obj.get("neighbours"))?,
             robot,
             radio,

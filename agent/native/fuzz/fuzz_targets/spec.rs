@@ -1,6 +1,6 @@
-//! The agent's spec (spec.rs, `--spec JSON`): an accepted spec holds only what agent/protocol/spec.py's
-//! `validate` allows (so the agent never runs on a value the launcher could not have written); a refusal is
-//! one line naming the spec.
+//! The agent's spec (spec.rs, `--spec JSON`), the one implementation the launcher encodes with (through
+//! agent._native): an accepted spec holds only values in its documented bounds and re-encodes (spec/encode.rs)
+//! to a text that decodes to the same spec, bit for bit; a refusal is one line naming the spec.
 #![no_main]
 
 use fluidswarm_agent::keys;
@@ -34,9 +34,11 @@ fuzz_target!(|data: &[u8]| {
             assert!((0.0..1.0).contains(&s.drop_out));
             assert!(unhex(&s.secret).is_some());
             for &(id, x, y) in &s.neighbours {
-                assert!(id < keys::MAX_AGENTS, "neighbour id {id} has no key (spec.py: [0, MAX_AGENTS))");
+                assert!(id < keys::MAX_AGENTS, "neighbour id {id} has no key (keys: [0, MAX_AGENTS))");
                 assert!(x.is_finite() && y.is_finite());
             }
+            let again = AgentSpec::from_json(&s.to_json()).expect("the encoder's output decodes");
+            assert_eq!(format!("{again:?}"), format!("{s:?}"), "to_json -> from_json changed the spec");
         }
         Err(e) => {
             assert!(e.starts_with("agent spec: "), "{e}");

@@ -11,6 +11,7 @@ mod json;
 mod keys;
 mod report;
 mod route;
+mod spec;
 mod wire;
 
 #[pymodule]
@@ -22,5 +23,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     keys::register(m)?;
     report::register(m)?;
     route::register(m)?;
+    spec::register(m)?;
     Ok(())
 }

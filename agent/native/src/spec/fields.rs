@@ -3,16 +3,17 @@
 use serde_json::{Map, Value};
 
 use crate::fill;
+use crate::keys;
 use crate::obstacle::{Obstacle, MAX_VERTICES};
 use crate::radio::{Radio, MAX_LATENCY};
 use crate::robot::{Kind, Robot};
 use crate::sph::{Control, Params};
 
-const PARAM_FIELDS: &[&str] =
+pub(super) const PARAM_FIELDS: &[&str] =
     &["h", "mass", "rho0", "gamma", "beta", "beta_pi", "mu", "kappa", "dt", "v_max", "drag", "domain", "border"];
-const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
-const ROBOT_FIELDS: &[&str] = &["kind", "radius", "v_max", "a_max", "omega_max", "offset"];
-const RADIO_FIELDS: &[&str] = &["loss", "latency", "noise", "seed"];
+pub(super) const CONTROL_FIELDS: &[&str] = &["wx", "wy", "r", "s", "alpha", "beta", "mu", "push_x", "push_y"];
+pub(super) const ROBOT_FIELDS: &[&str] = &["kind", "radius", "v_max", "a_max", "omega_max", "offset"];
+pub(super) const RADIO_FIELDS: &[&str] = &["loss", "latency", "noise", "seed"];
 
 pub(super) fn err<T>(msg: String) -> Result<T, String> {
     Err(format!("agent spec: {msg}"))
@@ -50,16 +51,18 @@ pub(super) fn string(obj: &Map<String, Value>, name: &str) -> Result<String, Str
     }
 }
 
-/// `neighbours`: a list of [id, x, y] (id an integer in [0, 2^31), x and y finite numbers).
+/// `neighbours`: a list of [id, x, y] (id an integer in [0, MAX_AGENTS): only those ids have a key; x and y
+/// finite numbers).
 pub(super) fn parse_neighbours(v: Option<&Value>) -> Result<Vec<(u32, f64, f64)>, String> {
     let Some(v) = v else { return Ok(Vec::new()) };
     let Some(rows) = v.as_array() else { return err(format!("neighbours must be a list of [id, x, y], got {v}")) };
     rows.iter()
         .map(|row| match row.as_array().map(|a| a.as_slice()) {
             Some([id, x, y]) => match (id.as_u64(), number(x), number(y)) {
-                (Some(i), Some(x), Some(y)) if i < (1u64 << 31) => Ok((i as u32, x, y)),
+                (Some(i), Some(x), Some(y)) if i < u64::from(keys::MAX_AGENTS) => Ok((i as u32, x, y)),
                 _ => err(format!(
-                    "neighbours entry must be [id, x, y] with an id in [0, 2^31) and finite x, y, got {row}"
+                    "neighbours entry must be [id, x, y] with an id in [0, {}) and finite x, y, got {row}",
+                    keys::MAX_AGENTS
                 )),
             },
             _ => err(format!("neighbours entry must be [id, x, y], got {row}")),
