@@ -3,7 +3,6 @@ holding only obstacles, such as scenarios/inputs/block_obstacles.toml) placed in
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from agent.protocol.errors import UserError
@@ -23,16 +22,9 @@ def obstacles_option(path: str | None) -> tuple[Obstacle, ...]:
     """The obstacles of `path` (None: none); bad input is one line naming the file and the key."""
     if path is None:
         return ()
-    from fluidswarm.scenario import scenario_obstacles
+    from fluidswarm.scenario import read_toml, scenario_obstacles
 
-    try:
-        raw = tomllib.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise UserError(f"--obstacles {path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"--obstacles {path}: cannot read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"--obstacles {path}: not valid TOML ({exc})") from None
+    raw = read_toml(Path(path), f"--obstacles {path}", "no such file")
     if "obstacle" not in raw:
         raise UserError(f"--obstacles {path}: key 'obstacle': the file holds no [[obstacle]] table")
     return scenario_obstacles(path, raw["obstacle"])

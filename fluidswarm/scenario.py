@@ -159,19 +159,25 @@ def _check_keys(file: str, where: str, table: dict, allowed) -> None:
             raise UserError(f"{file}: key '{where}{k}': unknown key (allowed: {', '.join(sorted(allowed))})")
 
 
+def read_toml(path: Path, name: str, missing: str) -> dict:
+    """The TOML document in `path`; a file that cannot be read or parsed is one UserError "<name>: ..."
+    (`missing`: what to say of a file that is not there)."""
+    try:
+        return tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise UserError(f"{name}: {missing}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{name}: cannot read ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"{name}: not valid TOML ({exc})") from None
+    except RecursionError:  # arrays or inline tables nested deeper than tomllib's stack
+        raise UserError(f"{name}: not valid TOML (nested too deep)") from None
+
+
 def load_scenario(path: str | Path) -> Scenario:
     path = find_scenario(path)
     file = str(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise UserError(f"{file}: no such scenario file (the shipped ones, run by name: {scenarios_dir()})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{file}: cannot read ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{file}: not valid TOML ({exc})") from None
-    except RecursionError:  # arrays or inline tables nested deeper than tomllib's stack
-        raise UserError(f"{file}: not valid TOML (nested too deep)") from None
+    raw = read_toml(path, file, f"no such scenario file (the shipped ones, run by name: {scenarios_dir()})")
     top = {
         "name",
         "description",

@@ -114,10 +114,6 @@ class AgentSpec:
         """The spec in `text` as the agent reads it; ValueError naming the field if it would refuse it."""
         return cls(**native.spec_decode(text))
 
-    def validate(self) -> None:
-        """Every check the agent makes of its spec (ValueError naming the field)."""
-        self.to_json()
-
     # The records inside, as the physics layer's objects (the reference drivers, coordinator/control/route.py):
     # conversions of a spec the agent's decoder accepted, no checks of their own.
     def robot_model(self) -> RobotModel:
