@@ -32,6 +32,20 @@ def same(a, b) -> bool:
     return json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
 
 
+def close(a, b, rel: float = 1e-12) -> bool:
+    """Equal structures whose floats agree to `rel` (absolute near 0), the tolerance sph_vectors.rs holds the
+    Rust step to. For what numpy's reductions compute: np.sum's SIMD loops are chosen by the CPU (AVX-512 here,
+    AVX2 elsewhere) and add in a different order, so the generator's last digit differs from machine to
+    machine (viscous_controlled_1: 0.33780355640880816 on this machine, ...082 where the file was written)."""
+    if isinstance(a, float) or isinstance(b, float):
+        return isinstance(a, (int, float)) and isinstance(b, (int, float)) and abs(a - b) <= rel * max(abs(b), 1.0)
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(close(a[k], b[k], rel) for k in a)
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(close(x, y, rel) for x, y in zip(a, b))
+    return a == b
+
+
 @pytest.mark.parametrize("v", load("state_records.json"), ids=lambda v: v["name"])
 def test_state_record(v):
     data = bytes.fromhex(v["hex"])
@@ -160,5 +174,5 @@ def test_files_are_current():
     assert same(gen.follower_sequences(payloads), SEQUENCES["sequences"])
     assert same(gen.route_vectors(), ROUTE)
     assert same(gen.fill_vectors(), FILL)
-    assert same(gen.sph_step_vectors(), load("sph_steps.json"))
-    assert same(gen.radio_vectors(), load("radio.json"))
+    assert close(gen.sph_step_vectors(), load("sph_steps.json"))
+    assert close(gen.radio_vectors(), load("radio.json"))
