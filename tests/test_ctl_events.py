@@ -1,5 +1,5 @@
 """The launcher's ctl messages and the agents' events (agent/protocol/ctl.py, events.py) against the shared
-vectors tests/vectors/ctl.json and events.json, which agent/native/tests/records.rs checks the Rust side on."""
+vectors tests/vectors/ctl.json and events.json, which agent/native/tests/all/records.rs checks the Rust side on."""
 
 from __future__ import annotations
 

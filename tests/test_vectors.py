@@ -1,6 +1,6 @@
 """The Python codecs against the shared test vectors in tests/vectors/ (made by tests/vectors/make_vectors.py).
 
-agent/native/tests/vectors.rs checks the compiled agent against the same files, so the two agree on every
+agent/native/tests/all/vectors.rs checks the compiled agent against the same files, so the two agree on every
 record and command there: what is accepted, the reason for what is not, and the values decoded. Expected
 values are compared through json.dumps, which tells 1 from 1.0 and 0.0 from -0.0.
 """

@@ -2,7 +2,7 @@
 `.venv/bin/python tests/vectors/make_vectors.py`.
 
 The files next to this script are committed; tests/test_vectors.py checks the Python codecs against them
-and agent/native/tests/vectors.rs the Rust ones, so both implementations make the same decisions:
+and agent/native/tests/all/vectors.rs the Rust ones, so both implementations make the same decisions:
 
     state_records.json      wire.decode_state: 104-byte v2 records (and a refused v1 one), valid and rejected (reason)
     commands.json           agent.protocol.command.decode: envelopes (raw bytes in hex), accepted (parsed
@@ -15,9 +15,9 @@ and agent/native/tests/vectors.rs the Rust ones, so both implementations make th
     ctl.json                agent.protocol.ctl.decode_ctl: the launcher's ctl/<what> payloads, decoded or dropped
     events.json             agent.protocol.events.decode_event: agent events, decoded or dropped
     radio.json              agent.sph.radio: the counter-based draws of the imperfect radio (loss, position error;
-                            agent/native/tests/radio_vectors.rs checks radio.rs)
+                            agent/native/tests/all/radio_vectors.rs checks radio.rs)
     sph_steps.json          agent.sph.particle.step_particle (numpy, the physics oracle): one particle's step,
-                            neighbours in, next state out (agent/native/tests/sph_vectors.rs checks sph.rs)
+                            neighbours in, next state out (agent/native/tests/all/sph_vectors.rs checks sph.rs)
 
 One module per file in tests/vectors/make/ (the name of the file it makes), this script writes them all.
 

@@ -4,7 +4,7 @@
 //! token, send an event or the final report, sleep until a time (and what should cut the sleep short), exit
 //! with a code. It holds no session, no thread and no clock: every time is the caller's `now`, seconds on a
 //! monotonic clock. The Zenoh shell (shell.rs) performs the actions; `cargo test` feeds it sequences
-//! (tests/vectors/agent_core/, agent/native/tests/agent_core.rs).
+//! (tests/vectors/agent_core/, agent/native/tests/all/agent_core.rs).
 //!
 //! Lockstep: at step m publish the state, wait for the step-m states of the agents expected near it,
 //! compute step m+1 with `sph::step_particle`. Async: step on its own clock with the latest neighbour states

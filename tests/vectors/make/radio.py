@@ -1,6 +1,6 @@
 """radio.json: agent.sph.radio (the oracle of the imperfect radio): the counter-based uniforms for chosen and
 extreme counters, and per radio setting which states a receiver loses and each sender's position error.
-agent/native/tests/radio_vectors.rs checks agent/native/src/radio.rs against it, so the agents and the
+agent/native/tests/all/radio_vectors.rs checks agent/native/src/radio.rs against it, so the agents and the
 reference driver draw the same numbers."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """sph_steps.json: agent.sph.particle.step_particle (numpy, the independent oracle of `fluidswarm verify`) on
 one particle and its neighbour rows: the parameters, the robot, the control, the own state and the
-neighbours in, the next state out. agent/native/tests/sph_vectors.rs checks the Rust step (sph.rs) against it.
+neighbours in, the next state out. agent/native/tests/all/sph_vectors.rs checks the Rust step (sph.rs) against it.
 
 Seeded: jittered lattices around the particle (some neighbours beyond the support, some frozen), every
 border mode, drag, push, viscosity, a frozen particle, one leaving the domain, and the three robot kinds

@@ -4,10 +4,6 @@
 //! formulas in the same order; numpy's pairwise sums of a dozen terms against a plain loop differ by
 //! rounding, so each field agrees to 1e-12 relative (1e-12 absolute near 0).
 
-// unhex is for the other vector files: each test file compiles its own copy of common
-#[allow(dead_code)]
-mod common;
-
 use fluidswarm_agent::obstacle::Obstacle;
 use fluidswarm_agent::robot::{Kind, Robot};
 use fluidswarm_agent::sph::{step_particle, Control, Params, State, NFIELDS};
@@ -92,7 +88,7 @@ fn obstacles(list: &Value) -> Vec<Obstacle> {
 
 #[test]
 fn the_step_matches_the_numpy_oracle() {
-    let cases = common::load("sph_steps.json");
+    let cases = crate::common::load("sph_steps.json");
     let cases = cases.as_array().expect("a list of cases");
     assert!(cases.len() >= 20);
     let mut kinds = std::collections::HashSet::new();

@@ -12,11 +12,9 @@
 //! an expected action names only the fields it checks, and a call's "out" lists every action of the call,
 //! in order. "step": the core's step after the call.
 
-mod common;
-
 use std::path::PathBuf;
 
-use common::{load, unhex};
+use crate::common::{load, unhex};
 use fluidswarm_agent::agent::{Action, AgentCore, Input};
 use fluidswarm_agent::ctl::{self, Ctl};
 use fluidswarm_agent::route::CommandFollower;

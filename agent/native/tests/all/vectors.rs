@@ -3,9 +3,7 @@
 //!
 //! The files are read as serde_json values (floats correctly rounded); floats compare bit for bit.
 
-mod common;
-
-use common::{load, unhex};
+use crate::common::{load, unhex};
 use fluidswarm_agent::command;
 use fluidswarm_agent::fill::{edges_cross, inside, nearest_point, Ring};
 use fluidswarm_agent::route::{class_counts, class_of, CommandFollower, FillFollower, RouteFollower};

@@ -2,9 +2,7 @@
 //! events.json, made from agent/protocol/ctl.py and events.py): the agent decodes every ctl payload as
 //! Python does, and encodes each valid event to the JSON Python decodes it to.
 
-mod common;
-
-use common::{load, unhex};
+use crate::common::{load, unhex};
 use fluidswarm_agent::ctl::{self, Ctl};
 use fluidswarm_agent::event::{Event, EventKind, Sighting};
 use serde_json::{json, Value};

@@ -3,10 +3,6 @@
 //! arithmetic and must be equal; the position errors go through ln, sqrt, cos and sin of the platform's libm on
 //! both sides and must be equal to 1e-15 m.
 
-// unhex is for the other vector files: each test file compiles its own copy of common
-#[allow(dead_code)]
-mod common;
-
 use fluidswarm_agent::radio::{uniform, Radio};
 use serde_json::Value;
 
@@ -20,7 +16,7 @@ fn f(v: &Value, k: &str) -> f64 {
 
 #[test]
 fn uniforms_match_the_oracle() {
-    let file = common::load("radio.json");
+    let file = crate::common::load("radio.json");
     let cases = file["uniforms"].as_array().expect("uniforms");
     assert!(cases.len() > 30);
     for c in cases {
@@ -31,7 +27,7 @@ fn uniforms_match_the_oracle() {
 
 #[test]
 fn losses_and_position_errors_match_the_oracle() {
-    let file = common::load("radio.json");
+    let file = crate::common::load("radio.json");
     let mut lost = 0;
     for setting in file["radios"].as_array().expect("radios") {
         let r = &setting["radio"];
