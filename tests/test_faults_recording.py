@@ -22,7 +22,7 @@ def write_steps(w: RunWriter, steps, n: int = 5) -> None:
         w.write_states(s, s * 0.01, np.arange(n), pos, np.zeros((n, 2)), np.ones(n), np.zeros(n), np.zeros(n, int))
 
 
-def snapshot_after_kill(tmp_path, flush_seconds: float = 0.2, wait: float = 0.5):
+def snapshot_after_kill(tmp_path, flush_seconds: float = 0.4, wait: float = 0.7):
     """Write steps 0-9 and 10-19, each followed by the flush period, then 20-24, and copy the file as it is:
     what a SIGKILL of the writer then would leave on disk (everything flushed reached the kernel)."""
     path, dead = tmp_path / "run.mcap", tmp_path / "dead.mcap"

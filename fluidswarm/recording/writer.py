@@ -174,14 +174,17 @@ class RunWriter:
                 if op is _STOP:
                     break
                 if op is not None:
+                    if not self._unflushed:
+                        # the flush period runs from the oldest unflushed record, not from the last idle
+                        # wake-up (up to 0.2 s stale): else a record arriving after a quiet spell was
+                        # flushed alone at once, and the chunk's contents depended on the idle timer
+                        flushed = time.monotonic()
                     op()
                     self._unflushed = True
                 if self._unflushed and time.monotonic() - flushed >= self._flush_seconds:
                     # the chunk in progress (if any) and every record before it, into the kernel's hands
                     self._mcap.flush()
                     self._unflushed = False
-                    flushed = time.monotonic()
-                elif not self._unflushed:
                     flushed = time.monotonic()
         except BaseException as exc:  # noqa: BLE001  # reported by close() and the next write
             self._error = exc
