@@ -38,6 +38,12 @@ def register(sub) -> None:
     )
     p.add_argument("--rate", type=float, default=12.0, help="async: steps/s each agent aims for")
     p.add_argument("--max-age", type=float, default=1.0, help="async: s after which a neighbour state is not used")
+    p.add_argument(
+        "--progress",
+        action="store_true",
+        help="the progress line on stderr (step, steps/s, alive, failures; a new line every 5 s into a file or "
+        "pipe: what scripts/soak.py reads)",
+    )
     add_live_argument(p)
     add_robot_argument(p)
     add_radio_arguments(p)
@@ -171,6 +177,7 @@ def _launch(args) -> int:
         raise UserError("--live needs --record FILE.mcap (the recorder process serves the live view)")
     options = _options(args, "launch", args.timeout)
     options.live = live_from_args(args)
+    options.progress = args.progress
     ids = parse_ids(args.ids, args.agents) if args.ids else None
     kind = Block(
         args.agents,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -78,6 +79,7 @@ def test_recorder_file_finished_after_sigint_to_launcher(tmp_path):
             str(path),
             "--live",
             f"127.0.0.1:{port}",
+            "--progress",
         ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -91,6 +93,9 @@ def test_recorder_file_finished_after_sigint_to_launcher(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
+    # --progress: the line scripts/soak.py reads (step/total, steps/s; later draws add alive, failures), a new
+    # line per draw into a pipe (every 5 s: this run is shorter, so its first draw is what there is)
+    assert re.search(r"step \[[# ]+\] \d+/100000\s+[\d.]+ steps/s", proc.stderr.read())
     complete, steps, missing = check(path)
     print(f"SIGINT after step {seen} was streamed; the file holds {steps} steps")
     assert steps >= seen
