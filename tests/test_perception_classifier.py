@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -134,6 +135,35 @@ def test_segmentation_is_plausible_for_98_percent_of_the_shared_hands(hands):
     rate = ok / len(images)
     print(f"plausible hand silhouettes: {ok}/{len(images)} = {rate:.4f}")
     assert rate >= 0.98
+
+
+# Fingertips (row, column) labelled by eye on 6x enlarged photographs with a row ruler: pale, brightly lit raised
+# fingers that Otsu's threshold alone left out (only the fist was kept, ~10 % of the picture).
+PALE_FINGERTIPS = {"2/IMG_1282.JPG": [(16, 36), (14, 53)], "1/IMG_1291.JPG": [(12, 53)]}
+
+
+@pytest.mark.parametrize("name", sorted(PALE_FINGERTIPS))
+def test_pale_raised_fingers_are_part_of_the_silhouette(shared_hands, name):
+    m = hand_mask(load_image(shared_hands / name))
+    for row, col in PALE_FINGERTIPS[name]:
+        assert m[max(0, row - 2) : row + 3, max(0, col - 2) : col + 3].any(), (name, row, col)
+    assert plausible(m)
+
+
+def test_pale_fingers_are_grown_back_but_not_a_grey_shadow():
+    """Drawn: a saturated palm from the bottom edge, three pale fingers on it (saturation 45, the wall's 6), a
+    grey shadow beside the palm (as dark as skin, no more saturated than the wall)."""
+    hsv = np.zeros((100, 100, 3), np.uint8)
+    hsv[...] = (110, 6, 232)
+    hsv[60:, 30:70] = (12, 120, 200)
+    for c in (34, 48, 62):
+        hsv[15:60, c - 4 : c + 4] = (12, 45, 235)
+    hsv[55:90, 72:90] = (110, 6, 165)
+    noise = np.random.default_rng(0).integers(-3, 4, hsv.shape)
+    img = np.clip(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR).astype(int) + noise, 0, 255).astype(np.uint8)
+    m = hand_mask(img)
+    assert m[65:, 35:65].all() and m[20:55, [34, 48, 62]].all()
+    assert not m[60:85, 76:88].any() and not m[:12].any()
 
 
 def test_the_training_benchmark_prints_its_figures(shared_hands, tmp_path, capsys):
