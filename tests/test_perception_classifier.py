@@ -187,3 +187,26 @@ def test_the_training_benchmark_prints_its_figures(shared_hands, tmp_path, capsy
     assert float(figures["training_cpu_seconds_median"]) > 0 and int(figures["model_bytes"]) > 1000
     assert bench.main(["--train", str(tmp_path / "missing")]) == 2
     assert "no such folder" in capsys.readouterr().err
+
+
+def test_the_cross_validation_script_prints_its_figures(shared_hands, tmp_path, capsys):
+    """scripts/classifier_cv.py (the cross-validated figures of docs/perception.md), on three classes of twelve
+    shared photos: every photo named once by a classifier that did not train on it, the files it got wrong."""
+    import importlib.util
+
+    for cls in "012":
+        (tmp_path / cls).mkdir()
+        for f in sorted((shared_hands / cls).iterdir())[:12]:
+            (tmp_path / cls / f.name).symlink_to(f)
+    spec = importlib.util.spec_from_file_location("classifier_cv", REPO / "scripts" / "classifier_cv.py")
+    cv = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cv)
+    assert cv.main(["--train", str(tmp_path), "--folds", "3"]) == 0
+    out = capsys.readouterr().out
+    figures = dict(line.split("=", 1) for line in out.splitlines() if line.startswith("cv_"))
+    assert "images=36 classes=0,1,2" in out and out.count("  fold ") == 3
+    wrong = out.split("wrong: ", 1)[1].splitlines()[0]
+    errors = int(figures["cv_errors"].split()[0])
+    assert errors == (0 if wrong == "none" else len(wrong.split()))
+    assert abs(float(figures["cv_accuracy"]) - (1 - errors / 36)) < 0.05 and float(figures["cv_min_fold"]) > 0.5
+    assert cv.main(["--train", str(tmp_path), "--folds", "1"]) == 2
