@@ -129,6 +129,7 @@ class EventLog:
     def __init__(self, folder: Path | None):
         self.path = None if folder is None else folder / "events.jsonl"
         self._said: str | None = None
+        self.last: str | None = None  # the last reason the subject was not found (None once it was found)
 
     def write(self, event: str, **fields) -> None:
         if self.path is None:
@@ -138,6 +139,7 @@ class EventLog:
 
     def missing(self, what: str | None) -> None:
         kind = None if what is None else re.sub(r"[0-9.]+", "#", what)  # the reason, not its figures
+        self.last = what
         if kind is not None and kind != self._said:
             self.write("missing", what=what)
         self._said = kind
@@ -255,10 +257,10 @@ def run_camera(
         if not getattr(exc, "is_file", False):
             raise
         log.write("end", frames=exc.frames)
-        if not exc.commanded:
+        if not exc.commanded:  # say why: the last reason logged ("no hand found: ...")
             raise StreamError(
                 f"camera {source}: the video ended after {exc.frames} frames without a "
-                f"{exc.subject or 'hand or person'} seen"
+                f"{exc.subject or 'hand or person'} seen" + (f" ({log.last})" if log.last else "")
             ) from None
 
 

@@ -159,3 +159,41 @@ def test_camera_video_of_three_hand_gestures_commands_each_and_ends_normally(sha
     assert 0.3 < r["realtime_factor"] <= 1.02  # never faster than the wall clock
     complete, steps, missing = check(tmp_path / "out" / "camera.mcap")
     assert complete and missing == 0 and steps > 100
+
+
+def _imitate_camera(video: Path, out: Path, agents: int = 16) -> subprocess.CompletedProcess:
+    cmd = ["imitate", "--camera", str(video), "--subject", "hand", "--agents", str(agents), "--out", str(out)]
+    cmd += ["--steps", "100000", "--json"]
+    return subprocess.run(FLUIDSWARM + cmd, capture_output=True, text=True, timeout=150)
+
+
+@pytest.mark.swarm
+@pytest.mark.parametrize("scene", ["empty", "person"])
+def test_a_video_that_never_shows_a_hand_ends_with_one_line_saying_why(scene, shared_hands, weizmann, tmp_path):
+    if scene == "empty":  # a plain white-ish background, nothing in front of it
+        frames, why = [np.full((100, 100, 3), 235, np.uint8)], "no foreground: the image is blank"
+    else:  # a person waving (Weizmann), watched with --subject hand
+        frames = [cv2.resize(f, (100, 100)) for f in load_frames(weizmann / "wave1" / "person1.png")][:16]
+        why = "not skin-coloured"
+    video = write_video(tmp_path / f"{scene}.avi", frames, seconds=16 / 8 / len(frames))  # 2 s at 8 fps
+    res = _imitate_camera(video, tmp_path / "out")
+    assert res.returncode == 1 and "Traceback" not in res.stderr, res.stderr
+    (line,) = res.stderr.strip().splitlines()
+    assert line.startswith(f"fluidswarm imitate: error: camera {video}: the video ended after 16 frames"), line
+    assert "without a hand seen (no hand found: " in line and why in line, line
+
+
+@pytest.mark.swarm
+def test_a_hand_that_leaves_the_picture_is_one_note_and_the_swarm_keeps_its_command(shared_hands, tmp_path):
+    hand = photo(shared_hands, 5)
+    plain = np.broadcast_to(np.median(hand.reshape(-1, 3), axis=0).astype(np.uint8), hand.shape).copy()
+    video = write_video(tmp_path / "leaving.avi", [hand, plain], seconds=2.0)  # 2 s of a hand, 2 s of none
+    res = _imitate_camera(video, tmp_path / "out")
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+    r = json.loads(res.stdout.strip().splitlines()[-1])
+    assert [g["gesture"] for g in r["gestures"]] == ["hand_5"], r["gestures"]
+    missing = [n for n in r["notes"] if "no hand found" in n]
+    assert len(missing) == 1 and "the image is blank" in missing[0], r["notes"]
+    assert r["fidelity"]["iou"] >= 0.5, r["fidelity"]  # the formation is still the hand
+    complete, _steps, lost = check(tmp_path / "out" / "camera.mcap")
+    assert complete and lost == 0
