@@ -4,7 +4,8 @@
     .venv/bin/python scripts/hand_video.py OUT.avi PART [PART ...] [--seconds 6] [--fps 8]
 
 A PART is a picture file (a shared hand photograph, say), `blank` (the plain background of the part before,
-or of the first picture: its median colour, a hand gone out of the picture), `white` (a plain white-ish
+or of the first picture: its median colour, a hand gone out of the picture), `lowered` (the picture before
+moved down out of the picture over the plain background, 5 px every second frame), `white` (a plain white-ish
 frame, 235 grey, the size of the first picture) or a Weizmann strip PNG (its frames in turn, enlarged to the
 first picture's size; on its own: at its own size). Prints the file and its frame count.
 """
@@ -31,7 +32,7 @@ def _plain(picture: np.ndarray) -> np.ndarray:
 def parts_to_frames(parts: list[str], seconds: float, fps: float) -> list[np.ndarray]:
     """Every frame of the video, in order."""
     n = int(round(seconds * fps))
-    pictures = [p for p in parts if p not in ("blank", "white")]
+    pictures = [p for p in parts if p not in ("blank", "white", "lowered")]
     size = SIZE
     if pictures and not pictures[0].endswith(".png"):
         size = load_image(pictures[0]).shape[1::-1]
@@ -44,6 +45,14 @@ def parts_to_frames(parts: list[str], seconds: float, fps: float) -> list[np.nda
             ref = last if last is not None else (load_image(pictures[0]) if pictures else None)
             plain = _plain(ref) if ref is not None else np.full((size[1], size[0], 3), 235, np.uint8)
             frames += [plain] * n
+        elif part == "lowered":
+            if last is None:
+                raise InputError("lowered: give a picture before it")
+            plain = _plain(last)
+            for k in range(5, last.shape[0], 5):
+                moved = plain.copy()
+                moved[k:] = last[: last.shape[0] - k]
+                frames += [moved, moved]
         elif part.endswith(".png") and "weizmann" in part:
             clip = [f if f.ndim == 3 else cv2.cvtColor(f, cv2.COLOR_GRAY2BGR) for f in load_frames(part)]
             clip = [cv2.resize(f, size, interpolation=cv2.INTER_LINEAR) for f in clip]
