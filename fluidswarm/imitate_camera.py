@@ -18,11 +18,13 @@ import math
 import subprocess
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
+from agent.sph.radio import PERFECT, RadioModel
+from agent.sph.robot import POINT, RobotModel
 from coordinator import handover
 from coordinator.camera import load_observation
 from coordinator.control.fidelity import fidelity
@@ -97,7 +99,8 @@ class CoordinatorWatch:
 class CameraImitation:
     """Imitate the person seen by `source` for `steps` steps; the gesture sequence comes as it happens.
     fps [1/s]: at most this many frames observed per second; stall_seconds [s]: no new frame for this long
-    is an error."""
+    is an error. `robot`, `radio`: the particles' body and drive and what their radios make of the states
+    they receive, as for an input file (fluidswarm/imitate.py FileImitation)."""
 
     source: str
     agents: int = 60
@@ -107,6 +110,8 @@ class CameraImitation:
     stall_seconds: float = 5.0
     subject: str = "person"
     kind: str = "camera"
+    robot: RobotModel = POINT
+    radio: RadioModel = PERFECT
 
     def drive(self, run: Run) -> None:
         o = run.options
@@ -143,6 +148,13 @@ class CameraImitation:
             what=f"the coordinator of camera {self.source}",
         )
         assert im.observation.frame is not None  # a camera's observation carries its picture
+        if self.robot != POINT:
+            try:  # before the recorder and the agents start
+                im.setup = im.setup.with_robot(self.robot)
+            except ValueError as exc:
+                raise UserError(f"--robot: {exc}") from None
+        if self.radio != PERFECT:
+            im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
         target, image = write_target(tmp, im, im.observation.frame)
         meta = {
             "scenario": o.name,
@@ -153,7 +165,10 @@ class CameraImitation:
             "agents": self.agents,
             "steps": self.steps,
             "sync": SyncMode.LOCKSTEP,
+            "seed": o.seed,
             "params": im.setup.params.as_dict(),
+            "robot": im.setup.robot.as_dict(),
+            "radio": im.setup.radio.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),
             "subject": self.subject,
@@ -206,9 +221,11 @@ def imitate_camera(
     live: str = "",
     name: str = "camera",
     subject: str = "person",
+    robot: RobotModel = POINT,
+    radio: RadioModel = PERFECT,
 ) -> RunRecord:
     """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
-    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject)
+    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject, robot=robot, radio=radio)
     with Run(
         kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, realtime=True)
     ) as run:

@@ -78,10 +78,6 @@ def _imitate(args) -> int:
     robot = robot_model(args.robot)
     radio = radio_model(radio_options(args))
     if args.camera is not None:
-        if args.robot is not None:
-            raise UserError("--robot: not yet with --camera (an input file only)")
-        if radio_options(args):
-            raise UserError("--radio-*: not yet with --camera (an input file only)")
         from fluidswarm.imitate_camera import imitate_camera
 
         record = imitate_camera(
@@ -94,6 +90,8 @@ def _imitate(args) -> int:
             stall_seconds=args.stall_seconds,
             live=live,
             subject=args.subject,
+            robot=robot,
+            radio=radio,
         )
     else:
         from fluidswarm.imitate import imitate
