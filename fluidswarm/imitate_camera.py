@@ -156,6 +156,8 @@ class CameraImitation:
         if self.radio != PERFECT:
             im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
         target, image = write_target(tmp, im, im.observation.frame)
+        # the subject the coordinator chose (said before its first observation): with `auto`, not "auto"
+        chosen = next((e for e in read_events(tmp) if e.get("event") == "subject"), {})
         meta = {
             "scenario": o.name,
             "camera": str(self.source),
@@ -171,7 +173,8 @@ class CameraImitation:
             "radio": im.setup.radio.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),
-            "subject": self.subject,
+            "subject": str(chosen.get("subject", self.subject)),
+            "subject_chosen": str(chosen.get("how", "given")),
             "realtime": True,
         }
         run.record_to(meta, im.setup.params.dt, target=target, image=image)

@@ -200,19 +200,22 @@ def test_a_hand_that_leaves_the_picture_is_one_note_and_the_swarm_keeps_its_comm
 
 
 @pytest.mark.swarm
-def test_a_hand_watched_live_by_unicycles_with_a_lossy_radio(shared_hands, tmp_path):
+def test_a_hand_watched_live_by_unicycles_with_a_lossy_radio_subject_auto(shared_hands, tmp_path):
     """--robot and --radio-* with --camera (issue 33): the bodies and the radio reach the agents and the
-    record, and the recorder counts the bodies' contacts, as for an input file."""
+    record, and the recorder counts the bodies' contacts, as for an input file. --subject auto: the MCAP says
+    what was chosen (a hand), not "auto"."""
     video = write_video(tmp_path / "hand.avi", [photo(shared_hands, 1)], seconds=3.0)
-    cmd = ["imitate", "--camera", str(video), "--subject", "hand", "--agents", "16", "--out", str(tmp_path / "out")]
+    cmd = ["imitate", "--camera", str(video), "--subject", "auto", "--agents", "16", "--out", str(tmp_path / "out")]
     cmd += ["--robot", "unicycle", "--radio-loss", "0.1", "--radio-latency", "2", "--radio-noise", "0.05", "--json"]
     res = subprocess.run(FLUIDSWARM + cmd, capture_output=True, text=True, timeout=150)
     assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
     r = json.loads(res.stdout.strip().splitlines()[-1])
     assert r["robot"] == "unicycle" and [g["gesture"] for g in r["gestures"]] == ["hand_1"], r
+    assert r["subject"] == "hand (auto)", r["subject"]
     assert (r["radio"]["loss"], r["radio"]["latency"], r["radio"]["noise"]) == (0.1, 2, 0.05), r["radio"]
     assert isinstance(r["collisions"], int) and r["min_separation_m"] > 0, r
     mcap = tmp_path / "out" / "camera.mcap"
     complete, _steps, lost = check(mcap)
     meta = load_run(mcap, images=False).metadata
     assert complete and lost == 0 and meta["robot"]["kind"] == "unicycle" and meta["radio"]["loss"] == 0.1
+    assert (meta["subject"], meta["subject_chosen"]) == ("hand", "auto"), meta
