@@ -20,7 +20,9 @@ from agent.sph.robot import (
     POINT,
     RobotModel,
     body_centres,
+    braking_distance,
     check_layout,
+    contact_onset,
     contact_terms,
     holonomic_velocity,
     offset_tracking,
@@ -120,8 +122,17 @@ def test_both_reference_drivers_agree_on_robots(robot):
     assert np.abs(a[:, [X, Y]] - setup.states[:, [X, Y]]).max() > 0.1  # they did move
 
 
+def test_bodies_repulsion_begins_a_braking_distance_before_the_margin():
+    # a robot at v_max braking at a_max rolls v_max^2 / (2 a_max) = 0.2175 m: the force must begin that much
+    # earlier than contact plus the margin, or it drives into a crowded neighbour's body
+    assert braking_distance(UNICYCLE) == pytest.approx(0.86**2 / 3.4)
+    assert braking_distance(POINT) == 0.0
+    assert contact_onset(UNICYCLE, 1.0) == pytest.approx(2 * 0.25 + CONTACT_MARGIN + 0.86**2 / 3.4)
+    assert contact_onset(UNICYCLE, 1.0) - 2 * UNICYCLE.radius > braking_distance(UNICYCLE)
+
+
 def test_bodies_repel_at_close_range_only():
-    r0 = CONTACT_MARGIN * 2 * 0.25
+    r0 = contact_onset(UNICYCLE, 1.0)
     tx, ty = contact_terms(np.array([0.4, r0, 1.0, 0.0]), np.array([0.0, 0.0, 0.0, 0.0]), r0, 1.0)
     assert tx[0] > 0 and ty[0] == 0  # pushed apart along x_ij
     assert list(tx[1:]) == [0.0, 0.0, 0.0]  # at r0, beyond it and on top (no direction): nothing

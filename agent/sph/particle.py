@@ -38,6 +38,7 @@ from agent.sph.robot import (
     POINT,
     RobotKind,
     RobotModel,
+    braking_distance,
     contact_acceleration,
     holonomic_velocity,
     initial_pose,
@@ -143,7 +144,7 @@ def step_particle(
     acc_x = float(np.sum(ax)) + float(fx) + control.push_x - params.drag * own[VX]
     acc_y = float(np.sum(ay)) + float(fy) + control.push_y - params.drag * own[VY]
     if robot.kind != RobotKind.POINT:  # robots keep their bodies apart (robot.py: contact_terms)
-        cx, cy = contact_acceleration(own, nb, robot)
+        cx, cy = contact_acceleration(own, nb, robot, params.h)
         acc_x, acc_y = acc_x + cx, acc_y + cy
     if obstacles:
         ox, oy = obstacle_push(own, obstacles, params, robot)
@@ -185,8 +186,7 @@ def obstacle_push(own: np.ndarray, obstacles: Sequence[Obstacle], params: SPHPar
         cx, cy = cx - robot.offset * math.cos(heading), cy - robot.offset * math.sin(heading)
     top = params.v_max if robot.kind == RobotKind.POINT else robot.v_max
     # a robot's drive brakes at a_max: the force begins its braking distance earlier (a point stops at once)
-    braking = 0.0 if robot.kind == RobotKind.POINT else robot.v_max * robot.v_max / (2.0 * robot.a_max)
-    r0 = robot.radius + OBSTACLE_MARGIN * params.h + braking
+    r0 = robot.radius + OBSTACLE_MARGIN * params.h + braking_distance(robot)
     return obstacle_acceleration(cx, cy, obstacles, r0, top * top, params.support)
 
 

@@ -44,11 +44,11 @@ from agent.sph.particle import (
 )
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import (
-    CONTACT_MARGIN,
     POINT,
     RobotKind,
     RobotModel,
     body_centres,
+    contact_onset,
     contact_terms,
     holonomic_velocity,
     unicycle_step,
@@ -238,9 +238,7 @@ class VectorisedDriver(Driver):
         robot = self.robot
         if robot.kind != RobotKind.POINT:
             c = body_centres(s, robot)
-            tx, ty = contact_terms(
-                c[i, 0] - c[j, 0], c[i, 1] - c[j, 1], CONTACT_MARGIN * 2.0 * robot.radius, robot.v_max**2
-            )
+            tx, ty = contact_terms(c[i, 0] - c[j, 0], c[i, 1] - c[j, 1], contact_onset(robot, params.h), robot.v_max**2)
             acc_x, acc_y = acc_x + np.bincount(i, tx, n), acc_y + np.bincount(i, ty, n)
 
         new = s.copy()

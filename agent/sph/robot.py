@@ -26,9 +26,16 @@ is compressed where it meets the boundary, and two robots of the swarm came with
 0.25 m radius touch at 0.5 m). Robots therefore repel each other's bodies at close range with the
 repulsive boundary force of Monaghan (J. Comput. Phys. 110, 1994, eq. 4.4), a Lennard-Jones form:
     f_ij = D ((r0/d)^p1 - (r0/d)^p2) x_ij / d^2  for d < r0, else 0,   p1 = 12, p2 = 4,
-between body centres d = |x_ij| apart, with r0 = CONTACT_MARGIN x 2 radius (the force begins a quarter
-of a body's diameter before contact) and D = v_max^2 (Monaghan takes D of the order of the square of
-the largest speed). A neighbour's body centre comes from its published pose (wire v2: heading).
+between body centres d = |x_ij| apart, with D = v_max^2 (Monaghan takes D of the order of the square of
+the largest speed) and the onset (`contact_onset`)
+    r0 = 2 radius + CONTACT_MARGIN h + v_max^2 / (2 a_max),
+the obstacles' rule (agent/sph/obstacles.py) for two bodies: they touch at d = 2 radius, and a robot's
+drive brakes at a_max, so the force has to begin its braking distance (`braking_distance`) before the
+margin, or a robot driving at v_max into a crowd cannot stop in time. The e-puck default:
+0.5 + 0.125 + 0.86^2 / 3.4 = 0.843 m. Measured: with r0 = 1.25 x 2 radius = 0.625 m (the force beginning
+0.125 m before contact, less than the 0.22 m braking distance) 60 unicycles of the obstacle course
+(scenarios/obstacle_course.toml) touched 4 times where they crowd at the wall's gaps. A neighbour's body
+centre comes from its published pose (wire v2: heading).
 
 Defaults: the e-puck (Mondada et al., "The e-puck, a robot designed for education in engineering",
 Proc. 9th Conf. Autonomous Robot Systems and Competitions, 2009): a 75 mm disc, 41 mm wheels 53 mm
@@ -118,7 +125,18 @@ class RobotModel:
 
 
 POINT = RobotModel()
-CONTACT_MARGIN = 1.25  # r0 / (2 radius): where the bodies' repulsion begins
+CONTACT_MARGIN = 0.125  # x h: how far beyond contact (plus the braking distance) the bodies' repulsion begins
+
+
+def braking_distance(robot: RobotModel) -> float:
+    """How far a robot driving at v_max rolls while its drive brakes at a_max [m]: v_max^2 / (2 a_max); a point
+    particle stops at once (0). Where the boundary forces begin, the bodies' and the obstacles'."""
+    return 0.0 if robot.kind == RobotKind.POINT else robot.v_max * robot.v_max / (2.0 * robot.a_max)
+
+
+def contact_onset(robot: RobotModel, h: float) -> float:
+    """r0 of the bodies' repulsion [m]: 2 radius + CONTACT_MARGIN h + braking distance (module docstring)."""
+    return 2.0 * robot.radius + CONTACT_MARGIN * h + braking_distance(robot)
 
 
 def robot_from(kind: str | None = None, table: dict | None = None) -> RobotModel:
@@ -206,11 +224,12 @@ def contact_terms(dx, dy, r0: float, strength: float):
     return mag * dx, mag * dy
 
 
-def contact_acceleration(own, neighbours, robot: RobotModel) -> tuple[float, float]:
-    """The sum of `contact_terms` on the body of `own` from the bodies of `neighbours` (state rows)."""
+def contact_acceleration(own, neighbours, robot: RobotModel, h: float) -> tuple[float, float]:
+    """The sum of `contact_terms` on the body of `own` from the bodies of `neighbours` (state rows), h the
+    smoothing length."""
     c = body_centres(np.asarray(own, dtype=float)[None, :], robot)[0]
     cn = body_centres(neighbours, robot) if len(neighbours) else np.empty((0, 2))
-    tx, ty = contact_terms(c[0] - cn[:, 0], c[1] - cn[:, 1], CONTACT_MARGIN * 2.0 * robot.radius, robot.v_max**2)
+    tx, ty = contact_terms(c[0] - cn[:, 0], c[1] - cn[:, 1], contact_onset(robot, h), robot.v_max**2)
     return float(np.sum(tx)), float(np.sum(ty))
 
 

@@ -37,8 +37,27 @@ impl Robot {
     }
 }
 
-/// r0 / (2 radius): where the bodies' repulsion begins (robot.py: CONTACT_MARGIN).
-pub const CONTACT_MARGIN: f64 = 1.25;
+/// x h: how far beyond contact, besides the braking distance, the bodies' repulsion begins (robot.py:
+/// CONTACT_MARGIN).
+pub const CONTACT_MARGIN: f64 = 0.125;
+
+/// v_max^2 / (2 a_max), how far a robot at top speed rolls while it brakes; 0 for a point, which stops at once
+/// (robot.py: braking_distance). Where the boundary forces begin, the bodies' and the obstacles'.
+pub fn braking_distance(robot: &Robot) -> f64 {
+    if robot.kind == Kind::Point {
+        0.0
+    } else {
+        robot.v_max * robot.v_max / (2.0 * robot.a_max)
+    }
+}
+
+/// r0 of the bodies' repulsion (robot.py: contact_onset): bodies touch at 2 radius and a robot needs its
+/// braking distance to stop, so the force begins CONTACT_MARGIN h plus that distance before contact (with
+/// 0.125 m before contact, less than the e-puck's 0.22 m braking distance, 60 unicycles of the obstacle
+/// course touched 4 times).
+pub fn contact_onset(robot: &Robot, h: f64) -> f64 {
+    2.0 * robot.radius + CONTACT_MARGIN * h + braking_distance(robot)
+}
 
 /// The body's centre of a state's particle (robot.py: body_centres): a unicycle's axle centre P - l e(theta).
 pub fn body_centre(x: f64, y: f64, heading: f64, robot: &Robot) -> (f64, f64) {

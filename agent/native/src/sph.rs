@@ -209,7 +209,7 @@ pub fn step_particle(
     if robot.kind != Kind::Point {
         // robots keep their bodies apart (robot.py: contact_acceleration), summed in neighbour order
         let (cx, cy) = robot::body_centre(own[X], own[Y], own[HEADING], robot);
-        let r0 = robot::CONTACT_MARGIN * 2.0 * robot.radius;
+        let r0 = robot::contact_onset(robot, params.h);
         let strength = robot.v_max * robot.v_max;
         let (mut tx, mut ty) = (0.0f64, 0.0f64);
         for nb in interacting(own, neighbours, params) {
@@ -270,8 +270,7 @@ fn obstacle_push(own: &State, obstacles: &[Obstacle], params: &Params, robot: &R
     }
     let top = if robot.kind == Kind::Point { params.v_max } else { robot.v_max };
     // a robot's drive brakes at a_max: the force begins its braking distance earlier (a point stops at once)
-    let braking = if robot.kind == Kind::Point { 0.0 } else { robot.v_max * robot.v_max / (2.0 * robot.a_max) };
-    let r0 = robot.radius + obstacle::OBSTACLE_MARGIN * params.h + braking;
+    let r0 = robot.radius + obstacle::OBSTACLE_MARGIN * params.h + robot::braking_distance(robot);
     obstacle::obstacle_acceleration(cx, cy, obstacles, r0, top * top, params.support())
 }
 
