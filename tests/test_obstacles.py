@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import AgentSpec
@@ -19,8 +20,13 @@ from agent.sph.obstacles import Circle, Polygon, clearances, distance, obstacle_
 from agent.sph.params import SPHParams
 from agent.sph.particle import NFIELDS, Control, initial_state, step_particle
 from agent.sph.robot import RobotModel
+from fluidswarm.recording.live import LiveAddress, LiveServer
+from fluidswarm.recording.messages import obstacle_outlines
 from fluidswarm.recording.reader import load_run
+from fluidswarm.recording.writer import RunWriter
 from fluidswarm.scenario import load_scenario
+from swarmhost.router_host import free_port
+from tests.foxglove_client import FoxgloveClient
 
 REPO = Path(__file__).resolve().parent.parent
 FS = [sys.executable, "-m", "fluidswarm"]
@@ -133,5 +139,59 @@ def test_the_obstacle_course_passes_the_wall_without_touching_it(tmp_path):
     assert record["obstacle_penetrations"] == 0 and record["min_obstacle_distance_m"] > 0.25
     assert record["fidelity"]["iou"] >= 0.7
     last = load_run(record["mcap"], images=False).frames[-1].positions
-    wall_top = max(y for o in load_scenario(REPO / "scenarios/obstacle_course.toml").obstacles for _x, y in o.vertices)
+    obstacles = load_scenario(REPO / "scenarios/obstacle_course.toml").obstacles
+    _assert_outlines(_recorded_outlines(record["mcap"]), obstacles)  # the recorder drew them in the scene
+    wall_top = max(y for o in obstacles if isinstance(o, Polygon) for _x, y in o.vertices)
     assert (last[:, 1] > wall_top).mean() >= 0.95  # the swarm is beyond the wall
+
+
+def _outlines(scene_update: dict) -> list[np.ndarray]:
+    """The line loops of a `foxglove.SceneUpdate`'s entity `obstacles`, as (n, 2) arrays."""
+    return [
+        np.array([(p["x"], p["y"]) for p in line["points"]])
+        for e in scene_update["entities"]
+        if e["id"] == "obstacles"
+        for line in e["lines"]
+    ]
+
+
+def _recorded_outlines(mcap: str | Path) -> list[np.ndarray]:
+    with open(mcap, "rb") as f:
+        found = [
+            _outlines(json.loads(m.data))
+            for _s, ch, m in make_reader(f).iter_messages()
+            if ch.topic.endswith("/scene") and b'"obstacles"' in m.data
+        ]
+    assert len(found) == 1, f"{len(found)} scene updates with obstacles"
+    return found[0]
+
+
+def _assert_outlines(loops: list[np.ndarray], obstacles) -> None:
+    assert len(loops) == len(obstacles)
+    for loop, o in zip(loops, obstacles):
+        if isinstance(o, Circle):
+            assert len(loop) >= 32
+            np.testing.assert_allclose(np.hypot(loop[:, 0] - o.x, loop[:, 1] - o.y), o.radius)
+        else:
+            np.testing.assert_array_equal(loop, np.array(o.vertices))
+
+
+def test_the_obstacles_are_scene_entities_live_and_recorded(tmp_path):
+    """Written once at the start: in the MCAP's scene and sent to a viewer that connects later."""
+    obstacles = (Circle(3.0, 4.0, 0.6), WALL)
+    port = free_port()
+    live = LiveServer(LiveAddress("127.0.0.1", port), "obstacles")
+    try:
+        with RunWriter(tmp_path / "run.mcap", {"run": "obstacles"}, live=live) as w:
+            w.write_obstacles(0.0, obstacles)
+            client = FoxgloveClient(f"ws://127.0.0.1:{port}")
+            client.subscribe(client.channel("scene")["id"], 1)
+            got = client.message(timeout=5)
+            client.close()
+    finally:
+        assert live.close()
+    assert got is not None and got[0] == 1
+    _assert_outlines(_outlines(json.loads(got[2])), obstacles)
+    _assert_outlines(_recorded_outlines(tmp_path / "run.mcap"), obstacles)
+    with pytest.raises(ValueError, match="at least one"):
+        obstacle_outlines(0.0, ())

@@ -11,12 +11,14 @@ from collections.abc import Iterable, Sequence
 import cv2
 import numpy as np
 
+from agent.sph.obstacles import Circle, Obstacle
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
 
 IDENTITY_POSE = {"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
 FRAME_ID = "domain"
 _ELLIPSE_SEGMENTS = 48
+_CIRCLE_SEGMENTS = 64
 
 
 def _color(rgb: Sequence[int], alpha: float) -> dict:
@@ -172,6 +174,34 @@ def target_outline(t: float, mask: np.ndarray, transform: ImageToDomain) -> tupl
         )
     payload = {"deletions": [], "entities": [_entity(sc.stamp(t), "target", lines=lines)]}
     return payload, png.tobytes()
+
+
+def obstacle_outlines(t: float, obstacles: Iterable[Obstacle]) -> dict:
+    """The domain's obstacles (agent/sph/obstacles.py) as one `foxglove.SceneUpdate` entity `obstacles` on
+    `fluidswarm/<run>/scene`: a line loop per obstacle, a polygon through its vertices, a circle through
+    `_CIRCLE_SEGMENTS` points of its boundary."""
+    loops = []
+    for o in obstacles:
+        if isinstance(o, Circle):
+            a = np.linspace(0, 2 * math.pi, _CIRCLE_SEGMENTS, endpoint=False)
+            xy = np.column_stack([o.x + o.radius * np.cos(a), o.y + o.radius * np.sin(a)])
+        else:
+            xy = np.asarray(o.vertices, dtype=float)
+        loops.append(
+            {
+                "type": 1,
+                "pose": IDENTITY_POSE,
+                "thickness": 3.0,
+                "scale_invariant": True,
+                "points": [_point(x, y) for x, y in xy],
+                "color": _color((40, 40, 40), 1.0),
+                "colors": [],
+                "indices": [],
+            }
+        )
+    if not loops:
+        raise ValueError("obstacles must hold at least one circle or polygon")
+    return {"deletions": [], "entities": [_entity(sc.stamp(t), "obstacles", lines=loops)]}
 
 
 def compressed_image(t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> dict:

@@ -114,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
     robot, obstacles = robot_of(metadata), obstacles_of(metadata)
+    if obstacles:
+        writer.write_obstacles(0.0, obstacles)
     counting = not robot.is_point or obstacles
     recorder = Recorder(args.run, writer, args.dt, ContactCounter(robot, obstacles) if counting else None)
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)

@@ -31,6 +31,7 @@ import numpy as np
 from mcap.writer import CompressionType, IndexType, Writer
 
 from agent.protocol.errors import SwarmFailed
+from agent.sph.obstacles import Obstacle
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import messages as msg
 from fluidswarm.recording import schemas as sc
@@ -280,6 +281,11 @@ class RunWriter:
         if not self._submit(op):
             return False
         return self._write(sc.SCENE, t, payload, latch="target")
+
+    def write_obstacles(self, t: float, obstacles: Sequence[Obstacle]) -> bool:
+        """The domain's obstacles as the scene's entity `obstacles` (messages.obstacle_outlines), sent again
+        to a live viewer that connects later."""
+        return self._write(sc.SCENE, t, msg.obstacle_outlines(t, obstacles), latch="obstacles")
 
     def write_fidelity(self, fidelity) -> bool:
         """The final formation's score (fidelity_iou, fidelity_inside, fidelity_coverage, nn_cv) as metadata
