@@ -139,8 +139,10 @@ def test_the_obstacle_course_passes_the_wall_without_touching_it(tmp_path):
     assert record["obstacle_penetrations"] == 0 and record["min_obstacle_distance_m"] > 0.25
     assert record["fidelity"]["iou"] >= 0.7
     last = load_run(record["mcap"], images=False).frames[-1].positions
-    obstacles = load_scenario(REPO / "scenarios/obstacle_course.toml").obstacles
+    scenario = load_scenario(REPO / "scenarios/obstacle_course.toml")
+    obstacles = scenario.obstacles
     _assert_outlines(_recorded_outlines(record["mcap"]), obstacles)  # the recorder drew them in the scene
+    _assert_bodies(record["mcap"], scenario.robot)
     wall_top = max(y for o in obstacles if isinstance(o, Polygon) for _x, y in o.vertices)
     assert (last[:, 1] > wall_top).mean() >= 0.95  # the swarm is beyond the wall
 
@@ -195,3 +197,30 @@ def test_the_obstacles_are_scene_entities_live_and_recorded(tmp_path):
     _assert_outlines(_recorded_outlines(tmp_path / "run.mcap"), obstacles)
     with pytest.raises(ValueError, match="at least one"):
         obstacle_outlines(0.0, ())
+
+
+def _assert_bodies(mcap: str | Path, robot) -> None:
+    """The recorder draws the unicycles' bodies and headings in the scene (entity `bodies`) every few steps:
+    a disc of the body radius at each axle centre, which lies `offset` behind the recorded particle, and an
+    arrow along the heading, pointing from the axle centre to the particle."""
+    run = load_run(mcap, images=False)
+    by_t = {f.t: f for f in run.frames}
+    with open(mcap, "rb") as f:
+        updates = [
+            (m.log_time / 1e9, json.loads(m.data))
+            for _s, ch, m in make_reader(f).iter_messages()
+            if ch.topic.endswith("/scene") and b'"bodies"' in m.data
+        ]
+    assert len(updates) >= len(run.frames) // 10, (len(updates), len(run.frames))
+    t, last = updates[-1]
+    (bodies,) = [e for e in last["entities"] if e["id"] == "bodies"]
+    frame = min(by_t.values(), key=lambda fr: abs(fr.t - t))
+    assert abs(frame.t - t) < 1e-6 and len(bodies["cylinders"]) == len(bodies["arrows"]) == len(frame.ids)
+    centres = np.array([(c["pose"]["position"]["x"], c["pose"]["position"]["y"]) for c in bodies["cylinders"]])
+    assert all(c["size"]["x"] == pytest.approx(2 * robot.radius) for c in bodies["cylinders"])
+    np.testing.assert_allclose(np.hypot(*(frame.positions - centres).T), robot.offset, rtol=1e-6)
+    yaw = np.array(
+        [2 * np.arctan2(a["pose"]["orientation"]["z"], a["pose"]["orientation"]["w"]) for a in bodies["arrows"]]
+    )
+    ahead = frame.positions - centres
+    np.testing.assert_allclose(np.column_stack([np.cos(yaw), np.sin(yaw)]) * robot.offset, ahead, atol=1e-6)

@@ -15,6 +15,7 @@ import pytest
 from mcap.reader import make_reader
 
 from coordinator.control.geometry import ImageToDomain
+from fluidswarm.recording.messages import body_entities
 from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.synthetic import write_synthetic_run
 from fluidswarm.recording.writer import RunWriter
@@ -312,3 +313,37 @@ def test_rejects_bad_run_names_and_commands(tmp_path):
         with pytest.raises(ValueError, match="level"):
             w.write_event(0.0, "loud", "x", "y")
     assert not os.path.exists(tmp_path / "x.mcap")
+
+
+def test_bodies_are_discs_of_their_radius_with_an_arrow_along_each_heading(tmp_path):
+    (e,) = body_entities(1.5, [[1.0, 2.0], [3.0, 4.0]], [0.0, np.pi / 2], 0.2)["entities"]
+    assert e["id"] == "bodies" and e["timestamp"] == {"sec": 1, "nsec": 500_000_000}
+    assert [c["size"]["x"] for c in e["cylinders"]] == [0.4, 0.4]
+    assert [(c["pose"]["position"]["x"], c["pose"]["position"]["y"]) for c in e["cylinders"]] == [(1, 2), (3, 4)]
+    quats = [a["pose"]["orientation"] for a in e["arrows"]]
+    assert quats[0] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}  # along +x
+    assert quats[1]["z"] == pytest.approx(np.sqrt(0.5)) and quats[1]["w"] == pytest.approx(np.sqrt(0.5))  # +y
+    assert body_entities(0.0, [[1.0, 2.0]], None, 0.2)["entities"][0]["arrows"] == []  # no heading: no arrow
+    for bad in ([[np.nan, 0.0]], [1.0, 2.0]):
+        with pytest.raises(ValueError, match="body centres"):
+            body_entities(0.0, bad, None, 0.2)
+    with pytest.raises(ValueError, match="body radius"):
+        body_entities(0.0, [[1.0, 2.0]], None, 0.0)
+    with pytest.raises(ValueError, match="headings"):
+        body_entities(0.0, [[1.0, 2.0]], [0.0, 1.0], 0.2)
+    # in a file beside the states, the reader takes the states and leaves the drawing
+    path = tmp_path / "bodies.mcap"
+    with RunWriter(path, {"run": "b"}) as w:
+        w.write_states(
+            0,
+            0.0,
+            np.arange(2),
+            np.array([[1.0, 2.0], [3.0, 4.0]]),
+            np.zeros((2, 2)),
+            np.ones(2),
+            np.zeros(2),
+            np.zeros(2, int),
+        )
+        w.write_bodies(0.0, [[1.0, 2.0], [3.0, 4.0]], [0.0, 1.0], 0.2)
+    run = load_run(path, images=False)
+    assert len(run.frames) == 1 and run.scenes == []

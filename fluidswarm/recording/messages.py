@@ -204,6 +204,46 @@ def obstacle_outlines(t: float, obstacles: Iterable[Obstacle]) -> dict:
     return {"deletions": [], "entities": [_entity(sc.stamp(t), "obstacles", lines=loops)]}
 
 
+def body_entities(t: float, centres, headings, radius: float) -> dict:
+    """The robots' bodies (agent/sph/robot.py) as one `foxglove.SceneUpdate` entity `bodies` on
+    `fluidswarm/<run>/scene`: a flat disc of the body radius at each body centre (a unicycle's axle centre)
+    and, for a body with a heading (unicycles; `headings` None for the others), an arrow along it from the
+    centre, one diameter long, so a viewer sees where each robot faces and whether two bodies touch."""
+    c = np.asarray(centres, dtype=float)
+    if c.ndim != 2 or c.shape[1] != 2 or not np.isfinite(c).all():
+        raise ValueError(f"body centres must be finite (N, 2), got shape {c.shape}")
+    if not (math.isfinite(radius) and radius > 0):
+        raise ValueError(f"body radius must be a positive number, got {radius!r}")
+    th = None if headings is None else _rows("headings", headings, len(c))
+    colour = _color((31, 119, 180), 0.45)
+    discs = [
+        {
+            "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
+            "size": {"x": 2 * radius, "y": 2 * radius, "z": 0.002},
+            "bottom_scale": 1.0,
+            "top_scale": 1.0,
+            "color": colour,
+        }
+        for x, y in c
+    ]
+    arrows = []
+    if th is not None:
+        for (x, y), a in zip(c, th):
+            # a yaw of `a` about +z as a unit quaternion (Foxglove's arrow points along its pose's +x)
+            q = {"x": 0.0, "y": 0.0, "z": math.sin(a / 2), "w": math.cos(a / 2)}
+            arrows.append(
+                {
+                    "pose": {"position": _point(x, y), "orientation": q},
+                    "shaft_length": 1.4 * radius,
+                    "shaft_diameter": 0.2 * radius,
+                    "head_length": 0.6 * radius,
+                    "head_diameter": 0.5 * radius,
+                    "color": _color((20, 20, 20), 1.0),
+                }
+            )
+    return {"deletions": [], "entities": [_entity(sc.stamp(t), "bodies", cylinders=discs, arrows=arrows)]}
+
+
 def compressed_image(t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> dict:
     """The perception input as `foxglove.CompressedImage` on `fluidswarm/<run>/perception/image`."""
     payload = {

@@ -129,6 +129,17 @@ _CYLINDER = {
         "color": _COLOR,
     },
 }
+_ARROW = {
+    "type": "object",
+    "properties": {
+        "pose": _POSE,
+        "shaft_length": {"type": "number"},
+        "shaft_diameter": {"type": "number"},
+        "head_length": {"type": "number"},
+        "head_diameter": {"type": "number"},
+        "color": _COLOR,
+    },
+}
 _LINE = {
     "type": "object",
     "properties": {
@@ -151,7 +162,7 @@ _ENTITY = {
         "lifetime": {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}},
         "frame_locked": {"type": "boolean"},
         "metadata": {"type": "array", "items": _KEY_VALUE},
-        "arrows": {"type": "array"},
+        "arrows": {"type": "array", "items": _ARROW},
         "cubes": {"type": "array"},
         "spheres": {"type": "array"},
         "cylinders": {"type": "array", "items": _CYLINDER},

@@ -20,7 +20,8 @@ from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
 from agent.protocol.report import Status, decode_report
 from agent.protocol.wire import decode_state
-from agent.sph.particle import RHO, VX, VY, P, X, Y
+from agent.sph.particle import HEADING, RHO, VX, VY, P, X, Y
+from agent.sph.robot import RobotKind, body_centres
 from fluidswarm.recording.writer import RunWriter
 
 # A step is written once every agent it waits for has been silent this long (frozen, cut off, never reported).
@@ -28,6 +29,9 @@ from fluidswarm.recording.writer import RunWriter
 # hundreds of steps ahead of the rest; timing a step from its first state dropped the whole swarm's states
 # as late stragglers once the fast one was 10 s ahead (hand_failures_freeze_drop, 2026-11-26).
 RELEASE_SECONDS = 10.0
+# Simulated s between two drawings of the robots' bodies in the scene (10 a simulated second): every step's
+# would be N discs and arrows of JSON per step, more than the states themselves; Foxglove keeps the last.
+BODY_SECONDS = 0.1
 QUIET_SECONDS = 3.0  # ... or once nothing new came from anyone for this long
 # At the end: the last messages still on their way are taken until none came for this long (at most the limit)
 FINISH_QUIET_SECONDS = 0.3
@@ -46,6 +50,7 @@ class Recorder:
         self.contacts = contacts
         self.writer = writer
         self.dt = dt
+        self.body_every = max(1, round(BODY_SECONDS / dt)) if dt > 0 else 1  # steps between body drawings
         self.inbox: queue.SimpleQueue = queue.SimpleQueue()
         self.pending: dict[int, dict[int, tuple]] = {}
         self.alive: set[int] = set()
@@ -281,6 +286,10 @@ class Recorder:
         )
         if self.contacts is not None:
             self.contacts.update(ids, vals)
+            robot = self.contacts.robot
+            if not robot.is_point and step % self.body_every == 0:
+                heads = vals[:, HEADING] if robot.kind == RobotKind.UNICYCLE else None
+                self.writer.write_bodies(self.t(step), body_centres(vals, robot), heads, robot.radius)
         self.last_written = (step, vals[:, [X, Y]])
         if not missing:
             self.last_complete = self.last_written

@@ -287,6 +287,11 @@ class RunWriter:
         to a live viewer that connects later."""
         return self._write(sc.SCENE, t, msg.obstacle_outlines(t, obstacles), latch="obstacles")
 
+    def write_bodies(self, t: float, centres, headings, radius: float) -> bool:
+        """The robots' bodies (and headings) as the scene's entity `bodies` (messages.body_entities), replacing
+        the last."""
+        return self._write(sc.SCENE, t, msg.body_entities(t, centres, headings, radius))
+
     def write_fidelity(self, fidelity) -> bool:
         """The final formation's score (fidelity_iou, fidelity_inside, fidelity_coverage, nn_cv) as metadata
         record `fidelity`, so a file carries its own verdict (issue 15) without re-scoring."""
