@@ -11,6 +11,7 @@ skips) when it is missing.
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 from collections.abc import Callable
@@ -20,6 +21,13 @@ import pytest
 import zenoh
 
 REPO = Path(__file__).resolve().parents[1]
+
+# A test run started as a background job of a non-interactive shell (`make test &`) inherits SIGINT ignored,
+# and so would every process it starts: the tests that stop a launcher or a recorder with SIGINT then waited
+# for it forever (an ignored signal stays ignored across exec, and Python installs no KeyboardInterrupt for
+# it). Handled here, the children start with SIGINT at its default, as from a terminal.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 DATASETS = REPO.parent / "shared" / "datasets"
 # Programs a unit test may not start: Python (the CLI, a coordinator, a recorder) and the compiled agent.
 # Other programs (fc-list, started by matplotlib when it builds its font cache) are not the swarm's.
