@@ -51,21 +51,36 @@ def _entity(stamp: dict, entity_id: str, **primitives) -> dict:
     return entity
 
 
+def _line_loop(xy, thickness: float, rgb: Sequence[int]) -> dict:
+    """A closed outline through the points `xy` ((n, 2), domain m) in one colour: the scene's line primitive."""
+    return {
+        "type": 1,
+        "pose": IDENTITY_POSE,
+        "thickness": thickness,
+        "scale_invariant": True,
+        "points": [_point(x, y) for x, y in xy],
+        "color": _color(rgb, 1.0),
+        "colors": [],
+        "indices": [],
+    }
+
+
+def _disc(x: float, y: float, r: float, colour: dict) -> dict:
+    """A flat disc of radius `r` at (x, y): the scene's cylinder primitive, 2 mm high."""
+    return {
+        "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
+        "size": {"x": 2 * r, "y": 2 * r, "z": 0.002},
+        "bottom_scale": 1.0,
+        "top_scale": 1.0,
+        "color": colour,
+    }
+
+
 def _ellipse_line(x: float, y: float, major: float, minor: float, angle_deg: float) -> dict:
     a = np.linspace(0, 2 * math.pi, _ELLIPSE_SEGMENTS, endpoint=False)
     c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
     ex, ey = major / 2 * np.cos(a), minor / 2 * np.sin(a)
-    pts = [_point(x + c * u - s * v, y + s * u + c * v) for u, v in zip(ex, ey)]
-    return {
-        "type": 1,
-        "pose": IDENTITY_POSE,
-        "thickness": 2.0,
-        "scale_invariant": True,
-        "points": pts,
-        "color": _color((214, 39, 40), 1.0),
-        "colors": [],
-        "indices": [],
-    }
+    return _line_loop([(x + c * u - s * v, y + s * u + c * v) for u, v in zip(ex, ey)], 2.0, (214, 39, 40))
 
 
 def state_cloud(step: int, t: float, ids, positions, velocities, density, pressure, class_ids, alive=None) -> dict:
@@ -125,16 +140,7 @@ def scene_update(t: float, waypoints: Iterable[Sequence[float]] = (), ellipses: 
     if any(len(e) != 5 or e[2] < 0 or e[3] < 0 for e in els):
         raise ValueError("ellipses must be (x, y, major, minor, angle_deg) with non-negative axes")
     stamp = sc.stamp(t)
-    discs = [
-        {
-            "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
-            "size": {"x": 2 * r, "y": 2 * r, "z": 0.002},
-            "bottom_scale": 1.0,
-            "top_scale": 1.0,
-            "color": _color((0, 0, 0), 0.25),
-        }
-        for x, y, r in wps
-    ]
+    discs = [_disc(x, y, r, _color((0, 0, 0), 0.25)) for x, y, r in wps]
     loops = [_ellipse_line(*e) for e in els]
     payload = {
         "deletions": [],
@@ -160,18 +166,7 @@ def target_outline(t: float, mask: np.ndarray, transform: ImageToDomain) -> tupl
     lines = []
     for c in contours:
         xy = transform.to_domain(c.reshape(-1, 2) + 0.5)
-        lines.append(
-            {
-                "type": 1,
-                "pose": IDENTITY_POSE,
-                "thickness": 2.0,
-                "scale_invariant": True,
-                "points": [_point(x, y) for x, y in xy],
-                "color": _color((80, 80, 80), 1.0),
-                "colors": [],
-                "indices": [],
-            }
-        )
+        lines.append(_line_loop(xy, 2.0, (80, 80, 80)))
     payload = {"deletions": [], "entities": [_entity(sc.stamp(t), "target", lines=lines)]}
     return payload, png.tobytes()
 
@@ -187,18 +182,7 @@ def obstacle_outlines(t: float, obstacles: Iterable[Obstacle]) -> dict:
             xy = np.column_stack([o.x + o.radius * np.cos(a), o.y + o.radius * np.sin(a)])
         else:
             xy = np.asarray(o.vertices, dtype=float)
-        loops.append(
-            {
-                "type": 1,
-                "pose": IDENTITY_POSE,
-                "thickness": 3.0,
-                "scale_invariant": True,
-                "points": [_point(x, y) for x, y in xy],
-                "color": _color((40, 40, 40), 1.0),
-                "colors": [],
-                "indices": [],
-            }
-        )
+        loops.append(_line_loop(xy, 3.0, (40, 40, 40)))
     if not loops:
         raise ValueError("obstacles must hold at least one circle or polygon")
     return {"deletions": [], "entities": [_entity(sc.stamp(t), "obstacles", lines=loops)]}
@@ -216,16 +200,7 @@ def body_entities(t: float, centres, headings, radius: float) -> dict:
         raise ValueError(f"body radius must be a positive number, got {radius!r}")
     th = None if headings is None else _rows("headings", headings, len(c))
     colour = _color((31, 119, 180), 0.45)
-    discs = [
-        {
-            "pose": {"position": _point(x, y), "orientation": IDENTITY_POSE["orientation"]},
-            "size": {"x": 2 * radius, "y": 2 * radius, "z": 0.002},
-            "bottom_scale": 1.0,
-            "top_scale": 1.0,
-            "color": colour,
-        }
-        for x, y in c
-    ]
+    discs = [_disc(x, y, radius, colour) for x, y in c]
     arrows = []
     if th is not None:
         for (x, y), a in zip(c, th):
