@@ -15,7 +15,8 @@ command) -- not every frame.
 The first command's imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up
 and the command) is handed to the launcher (`hand_over`, coordinator/handover.py), which places the swarm
 from it; every command's observation is written to `latest.npz` in the folder the launcher gives
-(`--observations DIR`), which it reads once the run has ended to score the formation; what happened goes
+(`--observations DIR`), which it reads once the run has ended to score the formation, and to
+`command-<seq>.npz` (the recorder's targets: fluidswarm/recording/coordinator_events.py); what happened goes
 to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
 chosen, each command (seq, gesture, why), each time the subject was not found (what, said once until it
 was found again or the reason changed) and the end of a video file. A video file ends normally at its
@@ -40,6 +41,7 @@ import numpy as np
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import Imitation, build_command, imitation_for
 from coordinator.control.observe import Observation, observe
+from fluidswarm.recording.coordinator_events import EVENTS_FILE, command_file
 from perception.segmentation import SegmentationError
 from perception.stream import FrameStream, StreamEnded, StreamError
 from perception.tracking import BoxKalman, box_to_centre
@@ -127,7 +129,7 @@ class EventLog:
     """events.jsonl in the observations folder (or nowhere); 'missing' said once per reason."""
 
     def __init__(self, folder: Path | None):
-        self.path = None if folder is None else folder / "events.jsonl"
+        self.path = None if folder is None else folder / EVENTS_FILE
         self._said: str | None = None
         self.last: str | None = None  # the last reason the subject was not found (None once it was found)
 
@@ -344,9 +346,10 @@ def _observe_stream(
             current.append(payload)
             del current[:-1]
             pub.put(payload)
-            log.write("command", seq=seq, gesture=obs.label, why=why)
-            if observations is not None:
+            if observations is not None:  # before the event: the recorder reads the file when it sees that
+                save_observation(observations / command_file(seq), obs)
                 save_observation(observations / "latest.npz", obs)
+            log.write("command", seq=seq, gesture=obs.label, why=why)
             if first_im is not None and hand_over is not None:
                 hand_over(first_im)
             if seq == 1 and started is not None and stream.is_file:
