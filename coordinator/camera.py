@@ -97,23 +97,35 @@ class LiveObserver:
 
 
 class HandObserver:
-    """Each frame on its own (perception/hand.py); None, with `missing` saying why, when it shows no hand."""
+    """Each frame read on its own (perception/hand.py `find_hand`), and its foreground watched across frames
+    for a hand leaving the picture (`ExitWatch`); None, with `missing` saying why, when it shows no hand or
+    one leaving (then the same note all along: the swarm keeps its command)."""
 
     subject = "hand"
 
     def __init__(self, classifier=None):
         from perception.eigen import default_model
+        from perception.hand import ExitWatch
 
         self.classifier = classifier or default_model()
+        self.exits = ExitWatch()
         self.missing: str | None = None
 
     def observe(self, frame: np.ndarray) -> Observation | None:
-        from perception.hand import NoHandError, find_hand
+        from perception.hand import NoHandError, find_hand, leaving_note
 
+        hand, why = None, None
         try:
             hand = find_hand(frame, self.classifier)
+            mask = hand.mask
         except NoHandError as exc:
-            self.missing = str(exc)
+            mask, why = exc.mask, str(exc)
+        border = self.exits.update(mask, hand is not None)
+        if border is not None:
+            self.missing = leaving_note(border)
+            return None
+        if hand is None:
+            self.missing = why
             return None
         self.missing = None
         return Observation("hand", hand.mask, f"hand_{hand.label}", frame, {})
