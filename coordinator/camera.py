@@ -15,7 +15,8 @@ command) -- not every frame.
 The first command's imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up
 and the command) is handed to the launcher (`hand_over`, coordinator/handover.py), which places the swarm
 from it; every command's observation is written to `latest.npz` in the folder the launcher gives
-(`--observations DIR`), which it reads once the run has ended to score the formation; what happened goes
+(`--observations DIR`), which it reads once the run has ended to score the formation, and to
+`command-<seq>.npz` (the recorder's targets: fluidswarm/recording/coordinator_events.py); what happened goes
 to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
 chosen, each command (seq, gesture, why), each time the subject was not found (what, said once until it
 was found again or the reason changed) and the end of a video file. A video file ends normally at its
@@ -40,6 +41,7 @@ import numpy as np
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import Imitation, build_command, imitation_for
 from coordinator.control.observe import Observation, observe
+from fluidswarm.recording.coordinator_events import EVENTS_FILE, command_file
 from perception.segmentation import SegmentationError
 from perception.stream import FrameStream, StreamEnded, StreamError
 from perception.tracking import BoxKalman, box_to_centre
@@ -95,23 +97,35 @@ class LiveObserver:
 
 
 class HandObserver:
-    """Each frame on its own (perception/hand.py); None, with `missing` saying why, when it shows no hand."""
+    """Each frame read on its own (perception/hand.py `find_hand`), and its foreground watched across frames
+    for a hand leaving the picture (`ExitWatch`); None, with `missing` saying why, when it shows no hand or
+    one leaving (then the same note all along: the swarm keeps its command)."""
 
     subject = "hand"
 
     def __init__(self, classifier=None):
         from perception.eigen import default_model
+        from perception.hand import ExitWatch
 
         self.classifier = classifier or default_model()
+        self.exits = ExitWatch()
         self.missing: str | None = None
 
     def observe(self, frame: np.ndarray) -> Observation | None:
-        from perception.hand import NoHandError, find_hand
+        from perception.hand import NoHandError, find_hand, leaving_note
 
+        hand, why = None, None
         try:
             hand = find_hand(frame, self.classifier)
+            mask = hand.mask
         except NoHandError as exc:
-            self.missing = str(exc)
+            mask, why = exc.mask, str(exc)
+        border = self.exits.update(mask, hand is not None)
+        if border is not None:
+            self.missing = leaving_note(border)
+            return None
+        if hand is None:
+            self.missing = why
             return None
         self.missing = None
         return Observation("hand", hand.mask, f"hand_{hand.label}", frame, {})
@@ -127,7 +141,7 @@ class EventLog:
     """events.jsonl in the observations folder (or nowhere); 'missing' said once per reason."""
 
     def __init__(self, folder: Path | None):
-        self.path = None if folder is None else folder / "events.jsonl"
+        self.path = None if folder is None else folder / EVENTS_FILE
         self._said: str | None = None
         self.last: str | None = None  # the last reason the subject was not found (None once it was found)
 
@@ -344,9 +358,10 @@ def _observe_stream(
             current.append(payload)
             del current[:-1]
             pub.put(payload)
-            log.write("command", seq=seq, gesture=obs.label, why=why)
-            if observations is not None:
+            if observations is not None:  # before the event: the recorder reads the file when it sees that
+                save_observation(observations / command_file(seq), obs)
                 save_observation(observations / "latest.npz", obs)
+            log.write("command", seq=seq, gesture=obs.label, why=why)
             if first_im is not None and hand_over is not None:
                 hand_over(first_im)
             if seq == 1 and started is not None and stream.is_file:

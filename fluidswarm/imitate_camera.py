@@ -177,7 +177,8 @@ class CameraImitation:
             "subject_chosen": str(chosen.get("how", "given")),
             "realtime": True,
         }
-        run.record_to(meta, im.setup.params.dt, target=target, image=image)
+        # the recorder follows the coordinator's notes and commands: its score is the last gesture's, as ours
+        run.record_to(meta, im.setup.params.dt, target=target, image=image, coordinator_events=str(tmp))
         run.swarm(SwarmPlan(im.setup, self.steps))
         self.latest = load_observation(tmp / "latest.npz")
         self.events = read_events(tmp)  # before the run's scratch folder goes
@@ -206,8 +207,8 @@ class CameraImitation:
         assert coord is not None  # drive() started it
         if self.watch.failed or coord.returncode not in (0, -15, None):
             raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
-        # Against the last gesture commanded, which only this process knows (the recorder's target, and its
-        # score in the file, are the first gesture's): scored here from the final reports.
+        # Against the last gesture commanded, from the final reports (the recorder scores the same target,
+        # followed from the coordinator's events, on the last step it wrote).
         _ids, pos = run.record.done_positions()
         score = fidelity(self.latest.mask, self.im.transform, pos)
         score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}", score)

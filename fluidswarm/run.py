@@ -272,16 +272,31 @@ class Run:
         self.launcher.watch_coordinator(proc)
 
     def record_to(
-        self, metadata: dict, dt: float, target: str = "", image: str = "", path: str | None = None
+        self,
+        metadata: dict,
+        dt: float,
+        target: str = "",
+        image: str = "",
+        path: str | None = None,
+        coordinator_events: str = "",
     ) -> Path | None:
-        """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either)."""
+        """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either);
+        `coordinator_events`: a camera coordinator's events folder, which it follows."""
         if path:
             self.mcap = Path(path)
         elif self.options.out is not None:
             self.mcap = Path(self.options.out) / f"{self.options.name}.mcap"
         else:
             return None
-        self.launcher.start_recorder(str(self.mcap), metadata, dt, target=target, image=image, live=self.options.live)
+        self.launcher.start_recorder(
+            str(self.mcap),
+            metadata,
+            dt,
+            target=target,
+            image=image,
+            live=self.options.live,
+            coordinator_events=coordinator_events,
+        )
         return self.mcap
 
     def swarm(self, plan: SwarmPlan) -> SwarmResult:

@@ -169,8 +169,9 @@ class Launcher:
         target: str = "",
         image: str = "",
         live: str = "",
+        coordinator_events: str = "",
     ):
-        proc = self.recorder.start(path, metadata, dt, timeout, target, image, live)
+        proc = self.recorder.start(path, metadata, dt, timeout, target, image, live, coordinator_events)
         self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
         return proc
 

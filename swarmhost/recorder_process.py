@@ -35,10 +35,12 @@ class RecorderProcess:
         target: str = "",
         image: str = "",
         live: str = "",
+        coordinator_events: str = "",
     ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
-        written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket."""
+        written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket;
+        `coordinator_events`: a camera coordinator's events folder, followed (recording/coordinator_events.py)."""
         check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
@@ -67,6 +69,8 @@ class RecorderProcess:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
+        if coordinator_events:
+            cmd += ["--coordinator-events", coordinator_events]
         self.proc = subprocess.Popen(
             cmd,
             stdout=out,

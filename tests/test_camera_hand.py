@@ -159,6 +159,10 @@ def test_camera_video_of_three_hand_gestures_commands_each_and_ends_normally(sha
     assert 0.3 < r["realtime_factor"] <= 1.02  # never faster than the wall clock
     complete, steps, missing = check(tmp_path / "out" / "camera.mcap")
     assert complete and missing == 0 and steps > 100
+    # the file's own score is the last gesture's, as the record's: a target a command, the last one scored
+    run = load_run(tmp_path / "out" / "camera.mcap", images=False)
+    assert len(run.targets) == len(gestures) and run.fidelity_gesture == "hand_2", (run.targets, run.fidelity)
+    assert abs(run.fidelity["fidelity_iou"] - r["fidelity"]["iou"]) < 0.05, (run.fidelity, r["fidelity"])
 
 
 def _imitate_camera(video: Path, out: Path, agents: int = 16) -> subprocess.CompletedProcess:
@@ -197,6 +201,9 @@ def test_a_hand_that_leaves_the_picture_is_one_note_and_the_swarm_keeps_its_comm
     assert r["fidelity"]["iou"] >= 0.5, r["fidelity"]  # the formation is still the hand
     complete, _steps, lost = check(tmp_path / "out" / "camera.mcap")
     assert complete and lost == 0
+    # and in the MCAP: a foxglove.Log of the coordinator, as the recorder's other events
+    said = [e for e in load_run(tmp_path / "out" / "camera.mcap", images=False).events if e.name == "coordinator"]
+    assert [(e.kind, e.level) for e in said] == [("missing", 3)] and "the image is blank" in said[0].message, said
 
 
 @pytest.mark.swarm

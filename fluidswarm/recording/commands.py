@@ -47,6 +47,8 @@ def _main(args: argparse.Namespace) -> int:
             print(salvage_lines(run))
         for key, value in run.fidelity.items():  # the score the recorder kept with the run
             print(f"recorded_{key}={value:.4f}")
+        if run.fidelity_gesture is not None:  # the gesture whose target it scored (the last one written)
+            print(f"recorded_fidelity_gesture={run.fidelity_gesture}")
         return 0 if c.complete else 1
     from fluidswarm.recording.replay import replay  # matplotlib only when rendering
 

@@ -102,6 +102,7 @@ class Recording:
     targets: list[Target] = field(default_factory=list)
     schemas: dict[str, str] = field(default_factory=dict)  # topic -> schema name
     fidelity: dict = field(default_factory=dict)  # the recorder's score of the final formation (metadata `fidelity`)
+    fidelity_gesture: str | None = None  # the gesture of the target it scored, when the recorder named it
     salvage: Salvage | None = None  # the file had no footer (its writer died): what was read of it
 
     @property
@@ -260,15 +261,18 @@ def recorded_robots(path: str | os.PathLike) -> dict | None:
 def _read(path: Path, reader, want_images: bool) -> Recording:
     """The run from `reader`: mcap's reader of a finished file, or a Salvage (iter_metadata, iter_attachments,
     iter_messages yielding (schema, channel, message))."""
-    metadata, target_meta, scores = {}, {}, {}
+    metadata, target_meta, scores, scored = {}, {}, {}, None
     for record in reader.iter_metadata():
         if record.name == "run":
             metadata = decode_metadata(record.metadata)
         elif record.name == "fidelity":
             scores = _scores(record.metadata)
+            scored = record.metadata.get("fidelity_gesture")
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
-    run = Recording(path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores)
+    run = Recording(
+        path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores, fidelity_gesture=scored
+    )
     for att in reader.iter_attachments():
         meta = target_meta.get(att.name)
         if meta is None:

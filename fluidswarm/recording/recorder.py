@@ -34,6 +34,7 @@ from agent.sph.robot import POINT, RobotModel
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.contacts import ContactCounter
+from fluidswarm.recording.coordinator_events import CoordinatorEvents
 from fluidswarm.recording.live import LiveServer, parse_address
 from fluidswarm.recording.steps import Recorder
 from fluidswarm.recording.writer import RunWriter
@@ -55,11 +56,15 @@ def obstacles_of(metadata: dict) -> tuple[Obstacle, ...]:
         return ()
 
 
-def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2) -> None:
+def record(
+    recorder: Recorder, stop: threading.Event, poll: float = 0.2, follow: CoordinatorEvents | None = None
+) -> None:
     """Take the run's messages until `stop` (agent/protocol/stopping.py) is set, within `poll` s; what is being
-    written then is written whole."""
+    written then is written whole. `follow`: the camera coordinator's events, read between pumps."""
     while not stop.is_set():
         recorder.pump(poll)
+        if follow is not None:
+            follow.poll(recorder.t(recorder.next_step))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -71,6 +76,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--metadata", default="{}", help="JSON object stored as the run's MCAP metadata")
     ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
+    ap.add_argument(
+        "--coordinator-events",
+        metavar="DIR",
+        help="a camera coordinator's events folder: its notes as log events, each command's silhouette a target",
+    )
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
     ap.add_argument(
         "--state-keys",
@@ -105,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
         if live is not None:
             live.close()
         return 2
-    target = None
+    target: tuple[np.ndarray, ImageToDomain] | None = None
     if args.target:
         with np.load(args.target) as t:
             target = (t["mask"].astype(bool), ImageToDomain(float(t["scale"]), float(t["x0"]), float(t["y0"])))
@@ -113,6 +123,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.image:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
+    follow = None
+    if args.coordinator_events:
+        gesture = metadata.get("gesture")
+        follow = CoordinatorEvents(
+            args.coordinator_events,
+            writer,
+            target[1] if target is not None else None,
+            gesture if isinstance(gesture, str) else None,
+        )
     robot, obstacles = robot_of(metadata), obstacles_of(metadata)
     if obstacles:
         writer.write_obstacles(0.0, obstacles)
@@ -140,13 +159,20 @@ def main(argv: list[str] | None = None) -> int:
             ),
         ]
         _token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
-        record(recorder, stop)
+        record(recorder, stop, follow=follow)
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         recorder.finish()
+        gesture = metadata.get("gesture")
+        if follow is not None:
+            follow.poll(recorder.t(recorder.next_step))  # what came since the last pump
+            target, gesture = follow.target or target, follow.gesture
         if target is not None and recorder.last_positions is not None:
-            writer.write_fidelity(fidelity(*target, recorder.last_positions))
+            # against the last target written (the last gesture's), named
+            writer.write_fidelity(
+                fidelity(*target, recorder.last_positions), gesture=gesture if isinstance(gesture, str) else None
+            )
         if recorder.contacts is not None:
             writer.write_robots(recorder.contacts.figures())
         writer.close()

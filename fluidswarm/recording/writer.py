@@ -292,15 +292,18 @@ class RunWriter:
         the last."""
         return self._write(sc.SCENE, t, msg.body_entities(t, centres, headings, radius))
 
-    def write_fidelity(self, fidelity) -> bool:
+    def write_fidelity(self, fidelity, gesture: str | None = None) -> bool:
         """The final formation's score (fidelity_iou, fidelity_inside, fidelity_coverage, nn_cv) as metadata
-        record `fidelity`, so a file carries its own verdict (issue 15) without re-scoring."""
-        values = {
+        record `fidelity`, so a file carries its own verdict (issue 15) without re-scoring; `gesture`: the
+        gesture of the target scored (the last written), as `fidelity_gesture`."""
+        values: dict = {
             "fidelity_iou": float(fidelity.iou),
             "fidelity_inside": float(fidelity.inside),
             "fidelity_coverage": float(fidelity.coverage),
             "nn_cv": float(fidelity.nn_cv),
         }
+        if gesture is not None:
+            values["fidelity_gesture"] = str(gesture)
         return self._submit(lambda: self._mcap.add_metadata("fidelity", encode_metadata(values)))
 
     def write_robots(self, figures: dict) -> bool:
