@@ -15,6 +15,7 @@ from agent.protocol.access import AuthFileError, acl_config, read_users_file
 from agent.protocol.errors import UserError
 from agent.protocol.session import TlsFiles, router_config_dict
 from agent.protocol.stopping import stop_on_signals
+from swarmhost.helpers import describe_exit
 from swarmhost.router_process import RouterFailed, RouterProcess
 
 POLL = 0.5  # s between looks at the router: its loss is said within this
@@ -110,8 +111,10 @@ def run(args) -> int:
     try:
         while not stop.wait(POLL):
             if router.proc.poll() is not None:
+                why = router.last_words().removeprefix("fluidswarm router: error: ")
                 raise UserError(
-                    f"the router (fluidswarm-router, pid {router.proc.pid}) exited with code {router.proc.returncode}"
+                    f"the router (fluidswarm-router, pid {router.proc.pid}) "
+                    f"{describe_exit(router.proc.returncode)}" + (f": {why}" if why else "")
                 )
     finally:
         router.close()

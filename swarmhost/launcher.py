@@ -118,7 +118,9 @@ class Launcher:
         self.helpers = Helpers(step=lambda: self.pacer.max_step)
         if self.router.process is not None:
             proc = self.router.process.proc
-            self.helpers.watch(f"embedded router (fluidswarm-router, pid {proc.pid})", proc)
+            self.helpers.watch(
+                f"embedded router (fluidswarm-router, pid {proc.pid})", proc, why=self.router.process.last_words
+            )
         try:
             self.supervisor = Supervisor(
                 self.swarm, self.access.env_for_agent, self.secret if commands else "", quiet, health=self.helpers.check

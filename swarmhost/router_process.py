@@ -58,7 +58,7 @@ class RouterProcess:
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
             with os.fdopen(fd, "w") as f:
                 json.dump(settings, f)
-            errors = open(os.path.join(private, "stderr"), "w+")  # noqa: SIM115  # closed in the finally below
+            errors = open(os.path.join(private, "stderr"), "w+")  # noqa: SIM115  # closed on failure below, else by close()
             self.proc = subprocess.Popen(
                 [router_executable(), run if run is not None else "--host"],
                 env=dict(os.environ, **{CONFIG_ENV: path}),
@@ -86,10 +86,15 @@ class RouterProcess:
             except BaseException:  # also Ctrl-C while it opens: never left behind
                 self._kill()
                 raise
-        finally:
+        except BaseException:
             if errors is not None:
                 errors.close()
+            raise
+        finally:
             shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
+        # Kept open (its name is gone with the directory): what the router says after `ready` is read when it is
+        # lost (`last_words`), so a router that dies mid-run is named with its reason, not only its exit code.
+        self._errors = errors
         self.zid = zid
         self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
         self._last_rejected: dict[str, int] = {}  # the relay's counts when the router closed
@@ -113,6 +118,15 @@ class RouterProcess:
         self.proc.wait()
         self._stdin.close()
         self._stdout.close()
+
+    def last_words(self) -> str:
+        """The last line the router wrote to its stderr since it started (its reason when it ends itself), or ''."""
+        errors = getattr(self, "_errors", None)
+        if errors is None or errors.closed:
+            return ""
+        errors.seek(0)
+        lines = [line.strip() for line in errors.read().splitlines() if line.strip()]
+        return lines[-1] if lines else ""
 
     def ask(self, request: str) -> str:
         """Send one request line, return the router's answer line."""
@@ -151,6 +165,8 @@ class RouterProcess:
         except subprocess.TimeoutExpired:
             pass
         self._kill()
+        if getattr(self, "_errors", None) is not None:
+            self._errors.close()
 
 
 class CompiledRelay:

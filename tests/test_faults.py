@@ -98,6 +98,34 @@ def cmdline(pid: int) -> list[str]:
         return []
 
 
+def test_a_hosts_router_that_dies_is_named_with_its_last_words(tmp_path):
+    """`fluidswarm router` (a host's router, long-lived): when its fluidswarm-router ends, the one line names how
+    and what it last said on stderr (a panic's message, say), which is otherwise gone with its private folder.
+    The last words are written into the router's own stderr (/proc/PID/fd/2) by the test, then it is aborted."""
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fluidswarm", "router", "--listen", f"tcp/127.0.0.1:{port}"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout.readline().startswith("router=")
+        routers = [p for p in descendants(proc.pid) if comm(p).startswith("fluidswarm-rout")]
+        assert len(routers) == 1
+        with open(f"/proc/{routers[0]}/fd/2", "a") as stderr:
+            stderr.write("thread 'rx-0' panicked at src/relay.rs:1:1: a test's last words\n")
+        os.kill(routers[0], signal.SIGABRT)
+        proc.wait(10)
+        err = proc.stderr.read().strip().splitlines()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0, err
+    assert len(err) == 1 and f"(fluidswarm-router, pid {routers[0]}) was killed by signal 6 (SIGABRT)" in err[0], err
+    assert err[0].endswith(": thread 'rx-0' panicked at src/relay.rs:1:1: a test's last words"), err
+
+
 def test_a_coordinator_killed_mid_imitation_ends_it_naming_the_coordinator(tmp_path):
     port = free_port()
     proc = subprocess.Popen(
