@@ -95,6 +95,7 @@ def lockstep(n: int, steps: int) -> LockstepRun:
     done = [r for r in res.finals.values() if r.done]
     sps = res.steps_per_second
     rss = [r.rss_mb for r in res.finals.values()]  # each agent's own peak (VmHWM)
+    pss = [r.pss_mb for r in res.finals.values() if r.pss_mb > 0]  # its share of the pages it maps with others
     # CPU of the stepping alone (start-up, imports and session opening excluded), per agent and step.
     stepping = [
         (r.cpu_seconds - r.cpu_seconds_at_start) / r.steps
@@ -127,6 +128,7 @@ def lockstep(n: int, steps: int) -> LockstepRun:
         vectorised_steps_per_second=round(vec_sps, 2),
         decentralisation_ratio=round(pp_sps / sps, 3) if sps else None,
         decentralisation_ratio_vectorised=round(vec_sps / sps, 3) if sps else None,
+        pss_mb_per_agent=round(float(np.mean(pss)), 1) if pss else None,
     )
 
 
@@ -244,19 +246,19 @@ def write_outputs(record: BenchRecord, out: Path) -> None:
         "",
         (
             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step "
-            "| RSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s "
+            "| RSS MB/agent | PSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s "
             "| decentralised/central time |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in record.runs:
         if isinstance(r, FailedRun):
-            lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 11)
+            lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 12)
             continue
         lines.append(
             f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
             f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | "
-            f"{r.rss_mb_total} | "
+            f"{r.pss_mb_per_agent} | {r.rss_mb_total} | "
             f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |"
         )
     lines += [
@@ -354,7 +356,7 @@ def run(args) -> int:
             continue
         print(
             f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
-            f"rss_mb_per_agent={r.rss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
+            f"rss_mb_per_agent={r.rss_mb_per_agent} pss_mb_per_agent={r.pss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
             file=lines,
             flush=True,
         )

@@ -50,6 +50,7 @@ def test_bench_quick_writes_every_field(tmp_path):
             "steps_per_second",
             "msgs_per_agent_step",
             "rss_mb_per_agent",
+            "pss_mb_per_agent",
             "centralised_steps_per_second",
             "decentralisation_ratio",
         ):
@@ -66,3 +67,5 @@ def test_bench_quick_writes_every_field(tmp_path):
         assert v is not None and v > 0
     # agents report their own peak RSS (VmHWM): the compiled agent, a few MB (issue 14: <= 15), not the parent's
     assert all(1 < run.rss_mb_per_agent <= 15 for run in res.runs)
+    # Pss shares the program's pages among the agents: well below RSS with 9 agents mapping one binary
+    assert all(0 < run.pss_mb_per_agent < 0.6 * run.rss_mb_per_agent for run in res.runs)

@@ -31,7 +31,8 @@ class Status(str, Enum):
 class FinalReport:
     """One agent's end: `state` is its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen, heading, speed:
     agent/sph/particle.py) in SI units;
-    times are Unix seconds (None when never reached); `rss_mb` the process's peak RSS [MB]; `cpu_seconds`
+    times are Unix seconds (None when never reached); `rss_mb` the process's peak RSS [MB]; `pss_mb` its proportional set size at the end
+    [MB] (shared pages divided among their processes); `cpu_seconds`
     process CPU time [s]; the command fields are -1 / None unless the agent follows gesture commands."""
 
     id: int
@@ -50,6 +51,7 @@ class FinalReport:
     t_end: float | None = None
     session_opened_at: float | None = None
     rss_mb: float = 0.0
+    pss_mb: float = 0.0
     cpu_seconds: float = 0.0
     cpu_seconds_at_start: float | None = None
     agent: str = ""

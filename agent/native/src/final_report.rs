@@ -34,7 +34,7 @@ const COUNTS: [&str; 9] = [
 ];
 const SIGNED: [&str; 2] = ["waypoint_index", "command_seq"];
 const OPTIONAL_TIMES: [&str; 5] = ["t_start", "t_end", "session_opened_at", "cpu_seconds_at_start", "first_command_at"];
-const TIMES: [&str; 2] = ["rss_mb", "cpu_seconds"];
+const TIMES: [&str; 3] = ["rss_mb", "pss_mb", "cpu_seconds"];
 
 /// How the agent's run ended (report.py: Status).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,7 +101,9 @@ impl Following {
 }
 
 /// One agent's end: `state` its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen, heading, speed) in SI units; times in
-/// Unix seconds (None: never reached); `rss_mb` its peak RSS [MB], `cpu_seconds` its CPU time [s].
+/// Unix seconds (None: never reached); `rss_mb` its peak RSS [MB], `pss_mb` its proportional set size at the
+/// end [MB] (shared pages, the program's text above all, divided among the processes that map them: what one
+/// more agent costs), `cpu_seconds` its CPU time [s].
 #[derive(Clone, Debug, PartialEq)]
 pub struct FinalReport {
     pub id: u32,
@@ -113,6 +115,7 @@ pub struct FinalReport {
     pub t_end: Option<f64>,
     pub session_opened_at: f64,
     pub rss_mb: f64,
+    pub pss_mb: f64,
     pub cpu_seconds: f64,
     pub cpu_seconds_at_start: Option<f64>,
     pub following: Option<Following>,
@@ -139,6 +142,7 @@ impl FinalReport {
         m.insert("t_end".into(), json!(self.t_end));
         m.insert("session_opened_at".into(), json!(self.session_opened_at));
         m.insert("rss_mb".into(), json!(self.rss_mb));
+        m.insert("pss_mb".into(), json!(self.pss_mb));
         m.insert("cpu_seconds".into(), json!(self.cpu_seconds));
         m.insert("cpu_seconds_at_start".into(), json!(self.cpu_seconds_at_start));
         m.insert("agent".into(), json!("native"));
@@ -237,6 +241,7 @@ mod tests {
             t_end: Some(12.5),
             session_opened_at: 9.0,
             rss_mb: 4.0,
+            pss_mb: 1.5,
             cpu_seconds: 0.5,
             cpu_seconds_at_start: None,
             following: None,
@@ -294,6 +299,7 @@ mod tests {
             t_end: None,
             session_opened_at: 0.5,
             rss_mb: 9.0,
+            pss_mb: 1.5,
             cpu_seconds: 0.25,
             cpu_seconds_at_start: None,
             following: None,

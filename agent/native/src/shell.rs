@@ -52,6 +52,19 @@ fn peak_rss_mb() -> f64 {
         .unwrap_or(0.0)
 }
 
+/// This process's proportional set size (Pss of /proc/self/smaps_rollup) in MB: its private pages plus its share
+/// of those it maps with others. RSS counts the agent program's text whole in every agent (~10 of its ~12 MB),
+/// so N agents' RSS adds up to far more than they take (docs/benchmarks/profile.md).
+fn pss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/smaps_rollup")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("Pss:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map(|kb| kb / 1024.0)
+        .unwrap_or(0.0)
+}
+
 /// What the shell holds for the run: the session, its declarations, the process figures of the report.
 struct Shell {
     session: Session,
@@ -213,6 +226,7 @@ impl Shell {
             Action::Report(report) => {
                 let report = FinalReport {
                     rss_mb: peak_rss_mb(),
+                    pss_mb: pss_mb(),
                     cpu_seconds: cpu_seconds(),
                     cpu_seconds_at_start: self.cpu_at_start,
                     ..report

@@ -22,6 +22,7 @@ impl AgentCore {
             t_end: self.t_end,
             session_opened_at: self.session_opened_at,
             rss_mb: 0.0,
+            pss_mb: 0.0,
             cpu_seconds: 0.0,
             cpu_seconds_at_start: None,
             following: self.controller.as_ref().map(|c| c.report()),
