@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "fluidswarm.scenario_commands",
     "fluidswarm.bench",
     "fluidswarm.router",
+    "fluidswarm.auth_file",
     "fluidswarm.reproduce.command",
 )
 

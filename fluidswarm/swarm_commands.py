@@ -23,7 +23,7 @@ def register(sub) -> None:
     p.add_argument("-n", "--agents", type=int, default=16)
     p.add_argument("--steps", type=int, default=100)
     p.add_argument("--connect", help="use the Zenoh router at tcp/HOST:PORT instead of an embedded one")
-    p.add_argument("--ids", help="start only this slice of the swarm on this host, e.g. 0-19 (multi-host)")
+    _add_slice_arguments(p, "start only this slice of the swarm on this host, e.g. 0-19 (multi-host)")
     p.add_argument("--run", help="run name (must match on every host of a split run)")
     p.add_argument(
         "--timeout", type=float, default=NEIGHBOUR_TIMEOUT.default, help="s before a silent neighbour is dropped"
@@ -58,7 +58,7 @@ def register(sub) -> None:
     p.add_argument(
         "--timeout", type=float, default=NEIGHBOUR_TIMEOUT.exact, help="s before a silent neighbour is dropped"
     )
-    p.add_argument("--ids", help="run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
+    _add_slice_arguments(p, "run only this slice of the swarm here (the other hosts run the rest), e.g. 0-19")
     p.add_argument("--run", help="run name shared by every host of a split run")
     _add_auth_file_argument(p)
     add_robot_argument(p)
@@ -66,6 +66,17 @@ def register(sub) -> None:
     add_obstacles_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_verify)
+
+
+def _add_slice_arguments(p, ids_help: str) -> None:
+    slice_ = p.add_mutually_exclusive_group()
+    slice_.add_argument("--ids", help=ids_help)
+    slice_.add_argument(
+        "--share",
+        metavar="K/M",
+        help="start region K (1..M) of M compact regions of the start layout here (recursive bisection, "
+        "agent/sph/regions.py; every host of the run names its own K of the same M)",
+    )
 
 
 def _add_auth_file_argument(p) -> None:
@@ -106,6 +117,38 @@ def parse_ids(text: str, n: int) -> list[int]:
     if bad:
         raise UserError(f"--ids {text!r}: id {bad[0]} is outside 0..{n - 1}")
     return sorted(set(out))
+
+
+def parse_share(text: str) -> tuple[int, int]:
+    """'2/3' -> (2, 3): region K of M, 1 <= K <= M."""
+    k, sep, m = text.partition("/")
+    try:
+        share = int(k), int(m)
+    except ValueError:
+        share = None
+    if not sep or share is None:
+        raise UserError(f"--share {text!r}: expected K/M, region K of M, e.g. 1/2")
+    if not 1 <= share[0] <= share[1]:
+        raise UserError(f"--share {text!r}: K must be 1..M")
+    return share
+
+
+def share_ids(text: str, setup) -> list[int]:
+    """The ids of region K of M (`--share K/M`) of `setup`'s start layout, sorted (agent/sph/regions.py)."""
+    from agent.sph.particle import X, Y
+    from agent.sph.regions import share
+
+    k, m = parse_share(text)
+    if m > len(setup.ids):
+        raise UserError(f"--share {text!r}: {m} regions of {len(setup.ids)} agents, at most one region per agent")
+    return sorted(int(i) for i in setup.ids[share(setup.states[:, [X, Y]], k, m)])
+
+
+def _slice(args, kind) -> list[int] | None:
+    """The ids of `--ids` or `--share` (after the block was checked: its layout is the one shared out)."""
+    if args.share:
+        return share_ids(args.share, kind.make_setup())
+    return parse_ids(args.ids, args.agents) if args.ids else None
 
 
 def _check_counts(agents: int, steps: int) -> None:
@@ -178,12 +221,15 @@ def _launch(args) -> int:
     options = _options(args, "launch", args.timeout)
     options.live = live_from_args(args)
     options.progress = args.progress
-    ids = parse_ids(args.ids, args.agents) if args.ids else None
+    if args.share and not args.run:
+        raise UserError("--share needs --run: every host of a split run must use the same run name")
+    if args.share:
+        parse_share(args.share)  # its form, before the block is made
     kind = Block(
         args.agents,
         args.steps,
         Sync(args.mode, args.rate, args.max_age),
-        ids,
+        None,
         args.record,
         robot=robot_model(args.robot),
         radio=radio_model(radio_options(args)),
@@ -191,6 +237,7 @@ def _launch(args) -> int:
     )
     check_lockstep(kind.radio, args.mode, "--radio-*")
     _check_block(kind)
+    kind.ids = _slice(args, kind)
     with Run(kind, options) as run:
         # the run's name and router come first, as they happen: the other hosts of a split run need them
         print(
@@ -219,13 +266,14 @@ def _verify(args) -> int:
 
     _check_counts(args.agents, args.steps)
     _check_before_start(args)
-    ids = parse_ids(args.ids, args.agents) if args.ids else None
-    if args.ids and not args.run:
-        raise UserError("--ids needs --run: every host of a split run must use the same run name")
+    for flag in ("ids", "share"):
+        if getattr(args, flag) and not args.run:
+            raise UserError(f"--{flag} needs --run: every host of a split run must use the same run name")
+    if args.share:
+        parse_share(args.share)
     kind = Block(
         args.agents,
         args.steps,
-        ids=ids,
         reference=True,
         kind="verify",
         robot=robot_model(args.robot),
@@ -233,6 +281,7 @@ def _verify(args) -> int:
         obstacles=obstacles_option(args.obstacles),
     )
     _check_block(kind)
+    kind.ids = _slice(args, kind)
     with Run(kind, _options(args, "verify", args.timeout)) as run:
         kind.drive(run)
     r = run.record

@@ -19,6 +19,7 @@ from dataclasses import astuple
 import zenoh
 
 from agent.protocol.access import LaunchAccess
+from agent.protocol.errors import SwarmFailed
 from agent.protocol.session import client_config, router_config_dict
 from swarmhost.relay import HostRelay
 from swarmhost.router_process import CompiledRelay, RouterProcess
@@ -74,6 +75,16 @@ class RouterHost:
                 )
                 conf = client_config([self.endpoint], *(astuple(self.access.own) if self.access.own else ()))
             self.session = zenoh.open(conf)
+        except zenoh.ZError as exc:
+            self.close_process()
+            if not connect:
+                raise
+            # zenoh retries for connect/timeout_ms, then tells an absent router and refused credentials alike
+            who = f"'{self.access.own.user}'" if self.access.own else "no credentials"
+            raise SwarmFailed(
+                f"cannot open a session on the router at {connect}: none answered, or it refused {who} "
+                f"({str(exc).split(' at ')[0]})"
+            ) from None
         except BaseException:
             self.close_process()
             raise

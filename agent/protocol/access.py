@@ -112,7 +112,7 @@ class UsersFile:
         self.path = os.path.join(self.dir, "users.txt")
         fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         with os.fdopen(fd, "w") as f:
-            f.write("".join(f"{c.user}:{c.password}\n" for c in creds))
+            f.write(users_text(creds))
 
     def remove(self) -> None:
         shutil.rmtree(self.dir, ignore_errors=True)
@@ -152,11 +152,16 @@ def read_users_file(path: str) -> list[Credential]:
     return creds
 
 
+def users_text(creds: list[Credential]) -> str:
+    """The text of a users file: one `user:password` line each (what read_users_file reads)."""
+    return "".join(f"{c.user}:{c.password}\n" for c in creds)
+
+
 def write_users_file(path: str, creds: list[Credential]) -> None:
-    """Write a users file for multi-host runs (mode 0600; refuses to overwrite)."""
+    """Write a users file for multi-host runs (mode 0600; refuses to overwrite: FileExistsError)."""
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     with os.fdopen(fd, "w") as f:
-        f.write("".join(f"{c.user}:{c.password}\n" for c in creds))
+        f.write(users_text(creds))
 
 
 @dataclass
