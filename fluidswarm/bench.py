@@ -356,7 +356,8 @@ def run(args) -> int:
             continue
         print(
             f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
-            f"rss_mb_per_agent={r.rss_mb_per_agent} pss_mb_per_agent={r.pss_mb_per_agent} decentralisation_ratio={r.decentralisation_ratio}",
+            f"rss_mb_per_agent={r.rss_mb_per_agent} pss_mb_per_agent={r.pss_mb_per_agent} "
+            f"decentralisation_ratio={r.decentralisation_ratio}",
             file=lines,
             flush=True,
         )

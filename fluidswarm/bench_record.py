@@ -185,8 +185,8 @@ def readme_section(record: BenchRecord, fit_max_n: int) -> str:
         ),
         "",
         (
-            "| N agents | steps/s | start-up s | msgs/agent/step | neighbours | CPU µs/agent-step | RSS MB/agent | PSS MB/agent "
-            "| per-particle central steps/s | vectorised steps/s | decentralised / per-particle time |"
+            "| N agents | steps/s | start-up s | msgs/agent/step | neighbours | CPU µs/agent-step | RSS MB/agent "
+            "| PSS MB/agent | per-particle central steps/s | vectorised steps/s | decentralised / per-particle time |"
         ),
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]

@@ -20,7 +20,7 @@ import zenoh
 
 from agent.protocol.access import LaunchAccess
 from agent.protocol.errors import SwarmFailed
-from agent.protocol.session import client_config, router_config_dict
+from agent.protocol.session import LAUNCHER_CONNECT_TIMEOUT_MS, client_config, router_config_dict
 from swarmhost.relay import HostRelay
 from swarmhost.router_process import CompiledRelay, RouterProcess
 
@@ -54,7 +54,8 @@ class RouterHost:
         if connect:
             self.endpoint = self.agent_endpoint = connect
             self.access = LaunchAccess.client(user, password, auth_file)  # docs/security.md
-            conf = client_config([connect], *(astuple(self.access.own) if self.access.own else ()))
+            user, password = (self.access.own.user, self.access.own.password) if self.access.own else ("", "")
+            conf = client_config([connect], user, password, timeout_ms=LAUNCHER_CONNECT_TIMEOUT_MS)
         else:
             self.endpoint = listen or f"tcp/127.0.0.1:{free_port()}"
             listeners = [self.endpoint]

@@ -30,10 +30,10 @@ class Status(str, Enum):
 @dataclass(frozen=True)
 class FinalReport:
     """One agent's end: `state` is its final row (x, y, vx, vy, rho, p, sxx, sxy, syy, frozen, heading, speed:
-    agent/sph/particle.py) in SI units;
-    times are Unix seconds (None when never reached); `rss_mb` the process's peak RSS [MB]; `pss_mb` its proportional set size at the end
-    [MB] (shared pages divided among their processes); `cpu_seconds`
-    process CPU time [s]; the command fields are -1 / None unless the agent follows gesture commands."""
+    agent/sph/particle.py) in SI units; times are Unix seconds (None when never reached); `rss_mb` the process's
+    peak RSS [MB]; `pss_mb` its proportional set size at the end [MB] (shared pages divided among their
+    processes); `cpu_seconds` process CPU time [s]; the command fields are -1 / None unless the agent follows
+    gesture commands."""
 
     id: int
     status: Status

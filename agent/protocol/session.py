@@ -9,9 +9,18 @@ import zenoh
 
 from agent.protocol.access import PASSWORD_ENV, USER_ENV
 
+# A launcher joining another host's router is one process, not hundreds at once: it need not outlast a flooded
+# accept queue, and a router that refuses its credentials looks to zenoh like one that is absent (it retries
+# both alike), so its user hears of either after this long, not after the agents' 2 minutes.
+LAUNCHER_CONNECT_TIMEOUT_MS = 20000
+
 
 def client_config(
-    endpoints: list[str], user: str = "", password: str = "", tls: TlsFiles | None = None
+    endpoints: list[str],
+    user: str = "",
+    password: str = "",
+    tls: TlsFiles | None = None,
+    timeout_ms: int = 120000,
 ) -> zenoh.Config:
     """A client that keeps retrying its router: 200 processes starting at once overwhelm a router's
     accept queue (../shared/notes: 1 in 6 failed) unless connect/timeout_ms lets them retry.
@@ -25,7 +34,7 @@ def client_config(
     conf.insert_json5("connect/endpoints", json.dumps(endpoints))
     # Retry for up to 2 minutes, not forever: a process still connecting when its launcher (and router)
     # died blocks inside zenoh.open, where no signal handler runs, and would be left behind.
-    conf.insert_json5("connect/timeout_ms", "120000")
+    conf.insert_json5("connect/timeout_ms", str(int(timeout_ms)))
     conf.insert_json5("scouting/multicast/enabled", "false")
     if user:
         conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
