@@ -255,7 +255,7 @@ mod tests {
         assert_eq!((m["id"].as_u64(), m["status"].as_str(), m["steps"].as_u64()), (Some(3), Some("done"), Some(40)));
         assert_eq!((m["msgs_received"].as_u64(), m["command_seq"].as_i64()), (Some(9), Some(-1)));
         assert_eq!((m["t_end"].as_f64(), m["cpu_seconds_at_start"].clone()), (Some(12.5), Value::Null));
-        assert_eq!(m.len(), 24); // report.py FinalReport's fields, every one
+        assert_eq!(m.len(), 25); // report.py FinalReport's fields, every one
     }
 
     #[test]
@@ -307,7 +307,7 @@ mod tests {
         let v: Value = serde_json::from_str(&r.encode()).unwrap();
         assert_eq!((v["v"].as_u64(), v["id"].as_u64(), v["status"].as_str()), (Some(1), Some(7), Some("fell_behind")));
         assert_eq!((v["t_end"].clone(), v["msgs_received"].as_u64()), (Value::Null, Some(3)));
-        assert_eq!(v.as_object().unwrap().len(), 20); // "v" and report.py FinalReport's 19 fields but the follower's
+        assert_eq!(v.as_object().unwrap().len(), 21); // "v" and report.py FinalReport's 20 fields but the follower's
         r.following = Some(Following {
             commands_accepted: 2,
             particle_class: 1,
@@ -317,6 +317,6 @@ mod tests {
         });
         let v = r.to_json();
         assert_eq!((v["command_seq"].as_i64(), v["first_command_at"].as_f64()), (Some(5), Some(2.5)));
-        assert_eq!(v.as_object().unwrap().len(), 25);
+        assert_eq!(v.as_object().unwrap().len(), 26);
     }
 }
