@@ -19,6 +19,7 @@ import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import cv2
 import numpy as np
@@ -30,7 +31,7 @@ from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
-from fluidswarm.recording.recover import Salvage, salvage
+from fluidswarm.recording.recover import Salvage, salvage, salvage_stream
 from fluidswarm.recording.writer import JSON_KEYS
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -170,11 +171,18 @@ def finished(path: Path) -> bool:
     Raises UserError naming the file if it is missing or not MCAP."""
     if not path.is_file():
         raise UserError(f"{path}: no such file")
-    size = path.stat().st_size
     with open(path, "rb") as fh:
-        head = fh.read(len(_MAGIC))
-        fh.seek(max(0, size - len(_MAGIC)))
-        tail = fh.read(len(_MAGIC))
+        return _finished(fh, path)
+
+
+def _finished(fh: BinaryIO, path: Path) -> bool:
+    """`finished` of the open, seekable file `fh` (named `path` in the error); leaves it at its start."""
+    size = fh.seek(0, os.SEEK_END)
+    fh.seek(0)
+    head = fh.read(len(_MAGIC))
+    fh.seek(max(0, size - len(_MAGIC)))
+    tail = fh.read(len(_MAGIC))
+    fh.seek(0)
     if head != _MAGIC:
         raise UserError(f"{path}: not an MCAP file" + (" (empty: its writer died before writing)" if size == 0 else ""))
     return tail == _MAGIC and size >= 2 * len(_MAGIC)
@@ -186,10 +194,11 @@ def _open_checked(path: Path):
     return open(path, "rb")
 
 
-def salvaged(path: Path) -> Salvage:
-    """The records of an unfinished file, up to its last whole one (recording/recover.py)."""
+def salvaged(path: Path, fh: BinaryIO | None = None) -> Salvage:
+    """The records of an unfinished file, up to its last whole one (recording/recover.py); from `fh` (the
+    file `path`, open and seekable) when given."""
     try:
-        return salvage(path)
+        return salvage(path) if fh is None else salvage_stream(fh)
     except _DAMAGED as exc:
         raise UserError(f"{path}: damaged MCAP file ({exc})") from None
 
@@ -198,22 +207,30 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Recording:
     """Read the whole run; a file whose writer died, up to its last whole record (`Recording.truncated`). Raises
     UserError naming the file if it is missing, not MCAP, or damaged."""
     path = Path(path)
-    if not finished(path):
-        kept = salvaged(path)
+    if not path.is_file():
+        raise UserError(f"{path}: no such file")
+    with open(path, "rb") as fh:
+        return read_run(fh, path, images=images)
+
+
+def read_run(fh: BinaryIO, path: Path, *, images: bool = True) -> Recording:
+    """`load_run` of the open, seekable binary file `fh` (a real file, or the bytes of one in an io.BytesIO:
+    the fuzz target, fuzz/python_targets.py); `path` names it in errors and in the Recording."""
+    if not _finished(fh, path):
+        kept = salvaged(path, fh)
         try:
             run = _read(path, kept, images)
         except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
         run.salvage = kept
         return run
-    with _open_checked(path) as fh:
-        try:
-            reader = make_reader(fh)
-            if reader.get_summary() is None:
-                raise ValueError("no summary section")
-            return _read(path, reader, images)
-        except _DAMAGED as exc:
-            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+    try:
+        reader = make_reader(fh)
+        if reader.get_summary() is None:
+            raise ValueError("no summary section")
+        return _read(path, reader, images)
+    except _DAMAGED as exc:
+        raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
 
 def _scores(values: dict[str, str]) -> dict[str, float]:
