@@ -55,11 +55,12 @@ netfault-tools:
 	@command -v nft >/dev/null 2>&1 || test "$$(id -u)" != 0 || apt-get install -y -q nftables >/dev/null \
 		|| { apt-get update -q >/dev/null && apt-get install -y -q nftables >/dev/null; }
 
-# `make fuzz` (not part of `make test`): every decoder's fuzz target for FUZZ_SECONDS each, inputs tried per
-# target (fuzz/run.py, docs/benchmarks/fuzz.md). The Rust targets are built by cargo-fuzz (installed from
-# crates.io on first use) with rustup's nightly toolchain, which libFuzzer's instrumentation needs; the
-# Python ones run under atheris (the `fuzz` extra).
+# `make fuzz` (not part of `make test`): every decoder's fuzz target for FUZZ_SECONDS each, or with FUZZ_RUNS=N
+# to N inputs each (no time bound); inputs tried per target (fuzz/run.py, docs/benchmarks/fuzz.md). The Rust
+# targets are built by cargo-fuzz (installed from crates.io on first use) with rustup's nightly toolchain,
+# which libFuzzer's instrumentation needs; the Python ones run under atheris (the `fuzz` extra).
 FUZZ_SECONDS ?= 30
+FUZZ_RUNS ?=
 FUZZ_STAMP := $(VENV)/.fuzz-installed
 CARGO_FUZZ_VERSION := 0.13.2
 
@@ -72,7 +73,7 @@ fuzz: $(FUZZ_STAMP)
 		|| { echo "make fuzz: needs rustup's nightly toolchain beside stable (rustup toolchain install nightly)"; exit 1; }
 	$(CARGO) fuzz --version 2>/dev/null | grep -q '$(CARGO_FUZZ_VERSION)' \
 		|| $(CARGO) install cargo-fuzz --version $(CARGO_FUZZ_VERSION) --locked
-	CARGO=$(CARGO) $(BIN)/python fuzz/run.py --seconds $(FUZZ_SECONDS)
+	CARGO=$(CARGO) $(BIN)/python fuzz/run.py $(if $(FUZZ_RUNS),--runs $(FUZZ_RUNS),--seconds $(FUZZ_SECONDS))
 
 # Linters, formatters (in check mode) and type checks, pinned in pyproject.toml (the lint extra) and
 # Cargo.lock; strictness and the rules left out, with why: pyproject.toml's [tool.ruff] and [tool.mypy].

@@ -5,6 +5,7 @@ An unknown key or a bad value is a `UserError` naming the file, the key and the 
 
 from __future__ import annotations
 
+import io
 import math
 import tomllib
 from dataclasses import dataclass, field, fields
@@ -163,10 +164,20 @@ def read_toml(path: Path, name: str, missing: str) -> dict:
     """The TOML document in `path`; a file that cannot be read or parsed is one UserError "<name>: ..."
     (`missing`: what to say of a file that is not there)."""
     try:
-        return tomllib.loads(path.read_text())
+        data = path.read_bytes()
     except FileNotFoundError:
         raise UserError(f"{name}: {missing}") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except OSError as exc:
+        raise UserError(f"{name}: cannot read ({exc})") from None
+    return parse_toml(data, name)
+
+
+def parse_toml(data: bytes, name: str) -> dict:
+    """The TOML document in the bytes of a file, decoded as `Path.read_text` does (the locale's encoding,
+    universal newlines); what cannot be decoded or parsed is one UserError "<name>: ..."."""
+    try:
+        return tomllib.loads(io.TextIOWrapper(io.BytesIO(data)).read())
+    except UnicodeDecodeError as exc:
         raise UserError(f"{name}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{name}: not valid TOML ({exc})") from None
@@ -176,8 +187,17 @@ def read_toml(path: Path, name: str, missing: str) -> dict:
 
 def load_scenario(path: str | Path) -> Scenario:
     path = find_scenario(path)
+    raw = read_toml(path, str(path), f"no such scenario file (the shipped ones, run by name: {scenarios_dir()})")
+    return _scenario(raw, path)
+
+
+def parse_scenario(data: bytes, path: Path) -> Scenario:
+    """`load_scenario` of the bytes of scenario file `path` (the fuzz target, fuzz/python_targets.py)."""
+    return _scenario(parse_toml(data, str(path)), path)
+
+
+def _scenario(raw: dict, path: Path) -> Scenario:
     file = str(path)
-    raw = read_toml(path, file, f"no such scenario file (the shipped ones, run by name: {scenarios_dir()})")
     top = {
         "name",
         "description",

@@ -16,33 +16,36 @@ report    agent/protocol/report.py an accepted report is within its bounds and s
 spec      agent/protocol/spec.py   an accepted spec survives to_json -> from_json; a refusal is a one-line
                                    ValueError "agent spec: ..."
 scenario  fluidswarm/scenario.py   (a TOML file) an accepted scenario is within its bounds; a refusal is one
-                                   UserError line naming the file
+                                   UserError line naming the file (load_scenario's parse_scenario, in memory)
 users     agent/protocol/access.py (a users file) accepted lines are roles with valid, unique credentials;
-                                   a refusal is one AuthFileError line naming the file
-mcap      fluidswarm/recording/reader.py  what `replay --check` does: load_run and completeness; a refusal is
-                                   one UserError line naming the file
+                                   a refusal is one AuthFileError line naming the file (read_users_file's
+                                   parse_users, in memory)
+mcap      fluidswarm/recording/reader.py  what `replay --check` does: load_run and completeness (load_run's
+                                   read_run, on an io.BytesIO: mcap's seeking reader, or the salvaging
+                                   stream reader of a file without footer); a refusal is one UserError line
+                                   naming the file
 """
 
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
 import math
-import os
-import tempfile
+from pathlib import Path
 
 from agent.protocol import command as cmd_mod
 from agent.protocol import ctl as ctl_mod
 from agent.protocol import events as ev_mod
 from agent.protocol import report as rep_mod
 from agent.protocol import wire
-from agent.protocol.access import _PASSWORD_RE, ROLES, AuthFileError, agent_id_of, read_users_file
+from agent.protocol.access import _PASSWORD_RE, ROLES, AuthFileError, agent_id_of, parse_users
 from agent.protocol.errors import UserError
 from agent.protocol.keys import MAX_AGENTS, valid_run_name
 from agent.protocol.spec import AgentSpec
 from agent.sph.particle import NFIELDS
-from fluidswarm.recording.reader import completeness, load_run
-from fluidswarm.scenario import load_scenario
+from fluidswarm.recording.reader import completeness, read_run
+from fluidswarm.scenario import parse_scenario
 
 SECRET = bytes(range(32))  # the shared vectors' secret (tests/vectors/make/common.py): their envelopes seed
 OTHER = b"another run's secret"
@@ -174,33 +177,16 @@ def spec(data: bytes) -> None:
     assert AgentSpec.from_json(s.to_json()) == s, "to_json -> from_json changed the spec"
 
 
-class _Scratch:
-    """One file per process, rewritten for every input (tmpfs when there is one: an input costs no disk)."""
-
-    def __init__(self, suffix: str):
-        base = "/dev/shm" if os.path.isdir("/dev/shm") else None
-        fd, self.path = tempfile.mkstemp(prefix="fluidswarm-fuzz-", suffix=suffix, dir=base)
-        os.close(fd)
-
-    def holding(self, data: bytes) -> str:
-        with open(self.path, "wb") as f:
-            f.write(data)
-        return self.path
-
-
-_files: dict[str, _Scratch] = {}
-
-
-def _file(suffix: str, data: bytes) -> str:
-    if suffix not in _files:
-        _files[suffix] = _Scratch(suffix)
-    return _files[suffix].holding(data)
+# The file-reading targets hand the decoder the input's bytes in memory under this name (what it names in its
+# errors): the same parsing and validation a file goes through (load_scenario = read + parse_scenario, ...),
+# without a file written and opened per input.
+_NAME = Path("fuzz-input")
 
 
 def scenario(data: bytes) -> None:
-    path = _file(".toml", data)
+    path = _NAME.with_suffix(".toml")
     try:
-        sc = load_scenario(path)
+        sc = parse_scenario(data, path)
     except UserError as exc:
         _one_line(exc, f"{path}: ")
         return
@@ -210,9 +196,9 @@ def scenario(data: bytes) -> None:
 
 
 def users(data: bytes) -> None:
-    path = _file(".users", data)
+    path = str(_NAME.with_suffix(".users"))
     try:
-        creds = read_users_file(path)
+        creds = parse_users(data, path)
     except AuthFileError as exc:
         _one_line(exc, f"{path}")
         return
@@ -223,9 +209,9 @@ def users(data: bytes) -> None:
 
 
 def mcap(data: bytes) -> None:
-    path = _file(".mcap", data)
+    path = _NAME.with_suffix(".mcap")
     try:
-        run = load_run(path, images=False)
+        run = read_run(io.BytesIO(data), path, images=False)
     except UserError as exc:
         _one_line(exc, f"{path}: ")
         return
@@ -235,11 +221,3 @@ def mcap(data: bytes) -> None:
 
 
 TARGETS = {f.__name__: f for f in (state, ctl, command, event, report, spec, scenario, users, mcap)}
-
-
-def cleanup() -> None:
-    for s in _files.values():
-        try:
-            os.unlink(s.path)
-        except OSError:
-            pass

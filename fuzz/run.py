@@ -4,11 +4,12 @@ a time), with one line per target: `fuzz target=<engine>/<name> inputs=<n> secon
 Rust targets (agent/native/fuzz, cargo-fuzz/libFuzzer, built with debug assertions so an integer overflow is a
 crash too) and Python ones (fuzz/python_targets.py under atheris). Each starts from its seeds (fuzz/seeds.py)
 plus the corpus earlier runs kept (agent/native/fuzz/corpus/, not committed). A crash leaves its input in
-agent/native/fuzz/artifacts/<engine>_<name>/ and makes the command exit 1; the minimised input belongs in
-tests/vectors/fuzz.json with a fix (docs/benchmarks/fuzz.md).
+agent/native/fuzz/artifacts/<engine>_<name>/ and makes the command exit 1; the input belongs in
+tests/vectors/fuzz/<engine>_<name>/ with a fix (docs/benchmarks/fuzz.md).
 
-    python fuzz/run.py [--seconds S] [--only NAME,...]      the driver
-    python fuzz/run.py --atheris NAME CORPUS [libFuzzer flags]  one Python target (what the driver starts)
+    python fuzz/run.py [--seconds S] [--runs N] [--only NAME,...]   the driver: S seconds per target, or N
+                                                                    inputs (libFuzzer -runs), whichever first
+    python fuzz/run.py --atheris NAME CORPUS... [libFuzzer flags]  one Python target (what the driver starts)
 """
 
 from __future__ import annotations
@@ -28,6 +29,12 @@ NATIVE = REPO / "agent" / "native"
 FUZZ_DIR = NATIVE / "fuzz"
 CARGO = os.environ.get("CARGO") or shutil.which("cargo") or str(Path.home() / ".cargo" / "bin" / "cargo")
 TOOLCHAIN = "+nightly"  # libFuzzer's coverage instrumentation needs nightly rustc flags (cargo-fuzz's own rule)
+# The Python targets whose decoder is the Rust one (through agent._native) that a Rust target fuzzes: atheris
+# sees no coverage inside the compiled module (its corpus would shrink to the few inputs that differ in the
+# Python wrapper), so such a target also starts from the corpus its Rust twin grew under libFuzzer's coverage
+# (the same input layout) and keeps every one of those inputs to mutate (-keep_seed=1); new inputs go to the
+# Python target's own corpus.
+TWINS = {"state": "wire", "ctl": "ctl", "command": "command", "event": "event", "report": "report", "spec": "spec"}
 _EXECUTED = re.compile(rb"stat::number_of_executed_units:\s*(\d+)")
 _DONE = re.compile(rb"Done (\d+) runs in (\d+) second")
 
@@ -42,10 +49,7 @@ def _atheris_child(name: str, libfuzzer_args: list[str]) -> None:
         import python_targets
     target = python_targets.TARGETS[name]
     atheris.Setup([sys.argv[0], *libfuzzer_args], target)
-    try:
-        atheris.Fuzz()
-    finally:
-        python_targets.cleanup()
+    atheris.Fuzz()
 
 
 def _write_seeds(corpus: Path, seeds: list[bytes]) -> None:
@@ -80,8 +84,10 @@ def _build_rust() -> Path:
     return FUZZ_DIR / "target" / host / "release"
 
 
-def _run(label: str, cmd: list[str], seconds: int, artifacts: Path, log: Path) -> tuple[int, int, bool]:
-    """(inputs tried, crashes, ok) of one libFuzzer run."""
+def _run(
+    label: str, cmd: list[str], seconds: int, runs: int, artifacts: Path, log: Path, flags: list[str] | None = None
+) -> tuple[int, int, bool]:
+    """(inputs tried, crashes, ok) of one libFuzzer run: `seconds` long, or `runs` inputs (0: no bound)."""
     if artifacts.exists():
         shutil.rmtree(artifacts)
     artifacts.mkdir(parents=True)
@@ -91,14 +97,16 @@ def _run(label: str, cmd: list[str], seconds: int, artifacts: Path, log: Path) -
             [
                 *cmd,
                 f"-max_total_time={seconds}",
+                f"-runs={runs or -1}",
                 "-print_final_stats=1",
                 "-timeout=30",
                 "-rss_limit_mb=2048",
                 f"-artifact_prefix={artifacts}/",
+                *(flags or []),
             ],
             stdout=out,
             stderr=subprocess.STDOUT,
-            timeout=seconds + 300,
+            timeout=seconds + 300 if seconds else None,
         )
     text = log.read_bytes()
     m = _EXECUTED.findall(text) or [d[0] for d in _DONE.findall(text)]
@@ -120,12 +128,15 @@ def main(argv: list[str]) -> int:
     sys.path.insert(0, str(REPO))
     import seeds
 
-    ap = argparse.ArgumentParser(description="run every fuzz target for --seconds each")
-    ap.add_argument("--seconds", type=int, default=int(os.environ.get("FUZZ_SECONDS", "30")))
+    ap = argparse.ArgumentParser(description="run every fuzz target for --seconds each, or to --runs inputs each")
+    ap.add_argument("--seconds", type=int, default=None, help="per target (default FUZZ_SECONDS, else 30)")
+    ap.add_argument("--runs", type=int, default=0, help="inputs per target; with --seconds, whichever comes first")
     ap.add_argument("--only", default="", help="comma-separated targets (rust/wire, python/mcap, or a bare name)")
     args = ap.parse_args(argv)
-    if args.seconds < 1:
-        print(f"fuzz: --seconds must be >= 1, got {args.seconds}", file=sys.stderr)
+    if args.seconds is None:
+        args.seconds = 0 if args.runs else int(os.environ.get("FUZZ_SECONDS", "30"))
+    if args.runs < 0 or args.seconds < 0 or not (args.runs or args.seconds):
+        print(f"fuzz: --seconds and --runs must be >= 1, got {args.seconds} and {args.runs}", file=sys.stderr)
         return 2
     wanted = {w for w in args.only.split(",") if w}
 
@@ -147,6 +158,7 @@ def main(argv: list[str]) -> int:
                     f"rust/{name}",
                     [str(out_dir / name), str(corpus)],
                     args.seconds,
+                    args.runs,
                     FUZZ_DIR / "artifacts" / f"rust_{name}",
                     logs / f"rust_{name}.log",
                 )
@@ -154,13 +166,18 @@ def main(argv: list[str]) -> int:
     for name in python:
         corpus = FUZZ_DIR / "corpus" / f"python_{name}"
         _write_seeds(corpus, seeds.PYTHON[name]())
+        twin = FUZZ_DIR / "corpus" / f"rust_{TWINS.get(name)}"
+        twinned = name in TWINS and twin.is_dir()
+        dirs = [str(corpus)] + ([str(twin)] if twinned else [])
         results.append(
             _run(
                 f"python/{name}",
-                [sys.executable, str(Path(__file__).resolve()), "--atheris", name, str(corpus)],
+                [sys.executable, str(Path(__file__).resolve()), "--atheris", name, *dirs],
                 args.seconds,
+                args.runs,
                 FUZZ_DIR / "artifacts" / f"python_{name}",
                 logs / f"python_{name}.log",
+                ["-keep_seed=1"] if twinned else [],
             )
         )
     failed = sum(not ok for _, _, ok in results)

@@ -176,7 +176,7 @@ def _uncompressed(path: Path, plain: Path) -> bytes:
 
 # Which seeds each target starts from: Rust targets (agent/native/fuzz/fuzz_targets/) and Python ones
 # (fuzz/python_targets.py) of the same decoder share them.
-RUST = {"wire": state, "ctl": ctl, "command": command, "report": report, "spec": spec, "keys": keys}
+RUST = {"wire": state, "ctl": ctl, "command": command, "event": event, "report": report, "spec": spec, "keys": keys}
 PYTHON = {
     "state": state,
     "ctl": ctl,

@@ -6,6 +6,7 @@ file one input, named for what went wrong) passes now."""
 
 from __future__ import annotations
 
+import io
 import sys
 from pathlib import Path
 
@@ -19,7 +20,12 @@ sys.path.insert(0, str(REPO / "fuzz"))
 import python_targets
 import seeds
 
-EXAMPLES = {"mcap": 40, "scenario": 100, "users": 100}  # file-backed targets cost more per input
+from agent.protocol.access import AuthFileError, parse_users, read_users_file
+from agent.protocol.errors import UserError
+from fluidswarm.recording.reader import completeness, load_run, read_run
+from fluidswarm.scenario import load_scenario, parse_scenario
+
+EXAMPLES = {"mcap": 40, "scenario": 100, "users": 100}  # the costlier targets per input
 FOUND = sorted((REPO / "tests" / "vectors" / "fuzz").glob("python_*/*"))
 
 
@@ -72,5 +78,43 @@ def test_found_inputs_pass_now(path):
     python_targets.TARGETS[path.parent.name.removeprefix("python_")](path.read_bytes())
 
 
-def teardown_module():
-    python_targets.cleanup()
+def _outcome(name: str, path: Path, data: bytes | None):
+    """What the decoder of a file-reading target makes of the file at `path` (data None: `load_run`,
+    `load_scenario`, `read_users_file`), or of its bytes `data` in memory (what the fuzz target calls): the
+    accepted record (for a run, its completeness and what it holds), or the refusal's type."""
+    try:
+        if name == "mcap":
+            run = load_run(path, images=False) if data is None else read_run(io.BytesIO(data), path, images=False)
+            return completeness(run), run.steps.tolist(), len(run.events), run.metadata, run.truncated
+        if name == "scenario":
+            return load_scenario(path) if data is None else parse_scenario(data, path)
+        return read_users_file(str(path)) if data is None else parse_users(data, str(path))
+    except (UserError, AuthFileError) as exc:
+        return type(exc), str(exc).startswith(f"{path}")
+
+
+@pytest.mark.parametrize("name", ["mcap", "scenario", "users"])
+def test_in_memory_decoders_read_as_the_files_do(name, tmp_path):
+    """The fuzz targets of the file decoders hand them the bytes in memory (read_run on an io.BytesIO,
+    parse_scenario, parse_users: what load_run, load_scenario and read_users_file do after opening the file);
+    on the seeds, the inputs once found and mutations of them, the file and its bytes give the same outcome."""
+    path = tmp_path / f"input.{name}"
+    found = [p.read_bytes() for p in FOUND if p.parent.name == f"python_{name}"]
+    pool = seeds.PYTHON[name]() + found
+    for data in pool:
+        path.write_bytes(data)
+        assert _outcome(name, path, None) == _outcome(name, path, data)
+
+    @settings(
+        max_examples=EXAMPLES[name],
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    )
+    @given(st.one_of(st.binary(max_size=300), mutated(pool)))
+    def run(data):
+        path.write_bytes(data)
+        assert _outcome(name, path, None) == _outcome(name, path, data)
+
+    run()

@@ -126,9 +126,18 @@ def read_users_file(path: str) -> list[Credential]:
     """`user:password` lines (blank lines and `#` comments skipped). Users are roles: agent-<id>, launcher,
     coordinator, recorder, router. Every problem is one line naming the file and the line."""
     try:
-        with open(path, encoding="utf-8") as f:
-            lines = f.read().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        raise AuthFileError(f"{path}: cannot read ({exc.__class__.__name__}: {exc})") from None
+    return parse_users(data, path)
+
+
+def parse_users(data: bytes, path: str) -> list[Credential]:
+    """`read_users_file` of the bytes of users file `path` (the fuzz target, fuzz/python_targets.py)."""
+    try:
+        lines = data.decode("utf-8").splitlines()
+    except UnicodeDecodeError as exc:
         raise AuthFileError(f"{path}: cannot read ({exc.__class__.__name__}: {exc})") from None
     creds, seen = [], set()
     for n, line in enumerate(lines, 1):

@@ -17,8 +17,10 @@ import base64
 import json
 import os
 import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import cv2
 import numpy as np
@@ -30,14 +32,28 @@ from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
-from fluidswarm.recording.recover import Salvage, salvage
+from fluidswarm.recording.recover import Salvage, salvage, salvage_stream
 from fluidswarm.recording.writer import JSON_KEYS
 
 _MAGIC = b"\x89MCAP0\r\n"
+_PNG = b"\x89PNG\r\n\x1a\n"
+_MAX_MASK_PIXELS = 1 << 26  # a target mask (an input image's size) of at most 8192 x 8192 pixels
 # What the mcap reader raises on a damaged file: its own errors, the struct/record decoding's, and what it lets
-# through (found by fuzzing): the decompressors' (zstd's ZstdError, lz4's RuntimeError) and the MemoryError of
-# a length field that claims more than memory holds (it reads that many bytes).
-_DAMAGED = (McapError, struct.error, EOFError, ValueError, KeyError, TypeError, ZstdError, RuntimeError, MemoryError)
+# through (found by fuzzing): the decompressors' (zstd's ZstdError, lz4's RuntimeError), the MemoryError of
+# a length field that claims more than memory holds (it reads that many bytes), and the OverflowError of an
+# offset beyond 2^63 that it seeks to in an io.BytesIO (`read_run`; a real file's seek raises ValueError).
+_DAMAGED = (
+    McapError,
+    struct.error,
+    EOFError,
+    ValueError,
+    KeyError,
+    TypeError,
+    ZstdError,
+    RuntimeError,
+    MemoryError,
+    OverflowError,
+)
 
 
 @dataclass(frozen=True)
@@ -150,11 +166,57 @@ def _decode_points(msg: dict) -> np.ndarray:
     return np.frombuffer(base64.b64decode(msg["data"]), dtype=dtype)
 
 
+def _object(v, what: str) -> dict:
+    """A JSON object of a message, or TypeError (a damaged file)."""
+    if not isinstance(v, dict):
+        raise TypeError(f"{what} is not a JSON object")
+    return v
+
+
+def _id(v, what: str) -> int | None:
+    """An agent id or a step (an integer; None: not given), or ValueError (a damaged file): what the
+    completeness rule counts with."""
+    if v is not None and type(v) is not int:
+        raise ValueError(f"{what} is not an integer: {v!r:.40}")
+    return v
+
+
+def _check_png(name: str, data: bytes) -> None:
+    """A target mask as the recorder writes it (a PNG, messages.py): ValueError unless its chunks lie within
+    the attachment, each with its CRC, and its size is a mask's, checked before OpenCV decodes it (found by
+    fuzzing): OpenCV allocates what a chunk's length field claims (4 GB for a 424-byte attachment), leaks
+    memory on a chunk that fails its CRC (a few kB each), and a small PNG can inflate to any size."""
+    if data[:8] != _PNG:
+        raise ValueError(f"attachment {name} is not a PNG")
+    at = 8
+    while at < len(data):
+        if at + 12 > len(data):
+            raise ValueError(f"attachment {name}: a PNG chunk is cut off")
+        length, kind = struct.unpack(">I4s", data[at : at + 8])
+        if at == 8:
+            if kind != b"IHDR" or length != 13:
+                raise ValueError(f"attachment {name}: a PNG without its IHDR chunk first")
+            width, height = struct.unpack(">II", data[at + 8 : at + 16])
+            if width * height > _MAX_MASK_PIXELS:
+                raise ValueError(f"attachment {name}: a {width} x {height} mask (at most {_MAX_MASK_PIXELS} pixels)")
+        end = at + 12 + length
+        if end > len(data):
+            raise ValueError(f"attachment {name}: a PNG chunk of {length} bytes runs past its end")
+        if zlib.crc32(data[at + 4 : end - 4]) != int.from_bytes(data[end - 4 : end], "big"):
+            raise ValueError(f"attachment {name}: PNG chunk {kind!r} fails its CRC")
+        at = end
+        if kind == b"IEND":
+            return
+    raise ValueError(f"attachment {name}: a PNG without its IEND chunk")
+
+
 def _frame(msg: dict, log_time: int, sequence: int) -> Frame:
     pts = _decode_points(msg)
-    step = msg.get(sc.EXTRA_KEY, {}).get("step", sequence)
+    step = int(_object(msg.get(sc.EXTRA_KEY, {}), "a state's extra").get("step", sequence))
+    if not 0 <= step < 2**63:
+        raise ValueError(f"a state's step {step} is beyond int64")
     return Frame(
-        step=int(step),
+        step=step,
         t=log_time / 1e9,
         ids=pts["id"].astype(np.int64),
         positions=np.stack([pts["x"], pts["y"]], axis=1).astype(float),
@@ -170,11 +232,18 @@ def finished(path: Path) -> bool:
     Raises UserError naming the file if it is missing or not MCAP."""
     if not path.is_file():
         raise UserError(f"{path}: no such file")
-    size = path.stat().st_size
     with open(path, "rb") as fh:
-        head = fh.read(len(_MAGIC))
-        fh.seek(max(0, size - len(_MAGIC)))
-        tail = fh.read(len(_MAGIC))
+        return _finished(fh, path)
+
+
+def _finished(fh: BinaryIO, path: Path) -> bool:
+    """`finished` of the open, seekable file `fh` (named `path` in the error); leaves it at its start."""
+    size = fh.seek(0, os.SEEK_END)
+    fh.seek(0)
+    head = fh.read(len(_MAGIC))
+    fh.seek(max(0, size - len(_MAGIC)))
+    tail = fh.read(len(_MAGIC))
+    fh.seek(0)
     if head != _MAGIC:
         raise UserError(f"{path}: not an MCAP file" + (" (empty: its writer died before writing)" if size == 0 else ""))
     return tail == _MAGIC and size >= 2 * len(_MAGIC)
@@ -186,10 +255,11 @@ def _open_checked(path: Path):
     return open(path, "rb")
 
 
-def salvaged(path: Path) -> Salvage:
-    """The records of an unfinished file, up to its last whole one (recording/recover.py)."""
+def salvaged(path: Path, fh: BinaryIO | None = None) -> Salvage:
+    """The records of an unfinished file, up to its last whole one (recording/recover.py); from `fh` (the
+    file `path`, open and seekable) when given."""
     try:
-        return salvage(path)
+        return salvage(path) if fh is None else salvage_stream(fh)
     except _DAMAGED as exc:
         raise UserError(f"{path}: damaged MCAP file ({exc})") from None
 
@@ -198,22 +268,30 @@ def load_run(path: str | os.PathLike, *, images: bool = True) -> Recording:
     """Read the whole run; a file whose writer died, up to its last whole record (`Recording.truncated`). Raises
     UserError naming the file if it is missing, not MCAP, or damaged."""
     path = Path(path)
-    if not finished(path):
-        kept = salvaged(path)
+    if not path.is_file():
+        raise UserError(f"{path}: no such file")
+    with open(path, "rb") as fh:
+        return read_run(fh, path, images=images)
+
+
+def read_run(fh: BinaryIO, path: Path, *, images: bool = True) -> Recording:
+    """`load_run` of the open, seekable binary file `fh` (a real file, or the bytes of one in an io.BytesIO:
+    the fuzz target, fuzz/python_targets.py); `path` names it in errors and in the Recording."""
+    if not _finished(fh, path):
+        kept = salvaged(path, fh)
         try:
             run = _read(path, kept, images)
         except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
         run.salvage = kept
         return run
-    with _open_checked(path) as fh:
-        try:
-            reader = make_reader(fh)
-            if reader.get_summary() is None:
-                raise ValueError("no summary section")
-            return _read(path, reader, images)
-        except _DAMAGED as exc:
-            raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
+    try:
+        reader = make_reader(fh)
+        if reader.get_summary() is None:
+            raise ValueError("no summary section")
+        return _read(path, reader, images)
+    except _DAMAGED as exc:
+        raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
 
 
 def _scores(values: dict[str, str]) -> dict[str, float]:
@@ -253,7 +331,7 @@ def recorded_robots(path: str | os.PathLike) -> dict | None:
             for record in make_reader(fh).iter_metadata():
                 if record.name == "robots":
                     return decode_metadata(record.metadata)
-        except (McapError, struct.error, EOFError, ValueError, KeyError, TypeError) as exc:
+        except _DAMAGED as exc:
             raise UserError(f"{path}: damaged MCAP file ({type(exc).__name__}: {exc})") from None
     return None
 
@@ -270,6 +348,9 @@ def _read(path: Path, reader, want_images: bool) -> Recording:
             scored = record.metadata.get("fidelity_gesture")
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
+    ids = metadata.get("agent_ids", [])
+    if not isinstance(ids, list) or not all(_id(a, "run metadata agent_ids") is not None for a in ids):
+        raise ValueError(f"run metadata agent_ids is not a list of ids: {ids!r:.40}")
     run = Recording(
         path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores, fidelity_gesture=scored
     )
@@ -277,11 +358,16 @@ def _read(path: Path, reader, want_images: bool) -> Recording:
         meta = target_meta.get(att.name)
         if meta is None:
             continue
-        mask = cv2.imdecode(np.frombuffer(att.data, np.uint8), cv2.IMREAD_GRAYSCALE)
+        _check_png(att.name, att.data)
+        try:
+            mask = cv2.imdecode(np.frombuffer(att.data, np.uint8), cv2.IMREAD_GRAYSCALE)
+        except cv2.error:  # OpenCV asserts on an empty buffer (found by fuzzing); other garbage gives None
+            mask = None
         if mask is None:
             raise ValueError(f"attachment {att.name} is not a PNG")
         tf = ImageToDomain(scale=float(meta["scale"]), x0=float(meta["x0"]), y0=float(meta["y0"]))
-        run.targets.append(Target(t=float(meta["t"]), mask=mask > 0, transform=tf))
+        # np.greater, not `>`: atheris (the fuzz target) keeps every array an instrumented comparison returns
+        run.targets.append(Target(t=float(meta["t"]), mask=np.greater(mask, 0), transform=tf))
     run.targets.sort(key=lambda tg: tg.t)
 
     for schema, channel, message in reader.iter_messages():
@@ -289,12 +375,12 @@ def _read(path: Path, reader, want_images: bool) -> Recording:
         run.schemas[channel.topic] = schema.name if schema else ""
         if leaf == sc.IMAGE and not want_images:
             continue
-        msg = json.loads(message.data)
+        msg = _object(json.loads(message.data), f"a message on {channel.topic}")
         t = message.log_time / 1e9
         if leaf == sc.STATE:
             run.frames.append(_frame(msg, message.log_time, message.sequence))
         elif leaf == sc.EVENTS:
-            extra = msg.get(sc.EXTRA_KEY, {})
+            extra = _object(msg.get(sc.EXTRA_KEY, {}), "an event's extra")
             run.events.append(
                 Event(
                     t=t,
@@ -302,13 +388,14 @@ def _read(path: Path, reader, want_images: bool) -> Recording:
                     name=msg.get("name", ""),
                     message=msg.get("message", ""),
                     kind=extra.get("kind"),
-                    agent=extra.get("agent"),
-                    step=extra.get("step"),
+                    agent=_id(extra.get("agent"), "an event's agent"),
+                    step=_id(extra.get("step"), "an event's step"),
                 )
             )
         elif leaf == sc.SCENE:
             extra = msg.get(sc.EXTRA_KEY)
             if extra is not None:  # target outlines carry no waypoints/ellipses
+                extra = _object(extra, "a scene's extra")
                 run.scenes.append(
                     Scene(
                         t=t,
@@ -368,7 +455,8 @@ def completeness(run: Recording) -> Completeness:
     for ev in run.events:
         if ev.agent is None or ev.kind not in ("started", "died"):
             continue
-        holds = all_steps >= ev.step if ev.step is not None else all_times >= ev.t
+        # np.greater_equal, not `>=`: as for the target masks in _read (the fuzz target under atheris)
+        holds = np.greater_equal(all_steps, ev.step) if ev.step is not None else np.greater_equal(all_times, ev.t)
         roster.add(ev.agent)
         if ev.kind == "started":
             start[ev.agent] = start.get(ev.agent, True) & holds

@@ -17,6 +17,7 @@ import tempfile
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 from mcap.exceptions import McapError
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
@@ -70,34 +71,40 @@ class Salvage:
 def salvage(path: str | os.PathLike) -> Salvage:
     """Every whole record of the file at `path`, in order (module docstring). Raises McapError if it does not
     even start as an MCAP file."""
-    path = Path(path)
-    out = Salvage(bytes_total=path.stat().st_size)
     with open(path, "rb") as fh:
-        reader = StreamReader(fh, emit_chunks=True, record_size_limit=out.bytes_total)
-        records = reader.records
-        try:
-            first = True
-            for record in records:
-                first = False
-                if isinstance(record, Chunk):
-                    try:
-                        inner = breakup_chunk(record, validate_crc=True)
-                    except BROKEN:
-                        out.chunks_dropped += 1
-                        out.bytes_kept = reader._stream.count
-                        continue
-                    out.chunks_kept += 1
-                    for r in inner:
-                        _take(out, r)
-                else:
-                    _take(out, record)
-                    if isinstance(record, Footer):
-                        out.finished = True
-                out.bytes_kept = reader._stream.count
-        except BROKEN as exc:
-            if first and out.bytes_kept == 0:
-                raise McapError(f"not an MCAP file ({type(exc).__name__})") from None
-            out.why = f"the file breaks off after byte {out.bytes_kept} ({type(exc).__name__})"
+        return salvage_stream(fh)
+
+
+def salvage_stream(fh: BinaryIO) -> Salvage:
+    """`salvage` of the open, seekable binary file `fh` (read from its start)."""
+    size = fh.seek(0, os.SEEK_END)
+    fh.seek(0)
+    out = Salvage(bytes_total=size)
+    reader = StreamReader(fh, emit_chunks=True, record_size_limit=out.bytes_total)
+    records = reader.records
+    try:
+        first = True
+        for record in records:
+            first = False
+            if isinstance(record, Chunk):
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except BROKEN:
+                    out.chunks_dropped += 1
+                    out.bytes_kept = reader._stream.count
+                    continue
+                out.chunks_kept += 1
+                for r in inner:
+                    _take(out, r)
+            else:
+                _take(out, record)
+                if isinstance(record, Footer):
+                    out.finished = True
+            out.bytes_kept = reader._stream.count
+    except BROKEN as exc:
+        if first and out.bytes_kept == 0:
+            raise McapError(f"not an MCAP file ({type(exc).__name__})") from None
+        out.why = f"the file breaks off after byte {out.bytes_kept} ({type(exc).__name__})"
     return out
 
 

@@ -7,9 +7,43 @@ use fluidswarm_agent::final_report::{self, MAX_ABS, MAX_COUNT, MIN_STATE};
 use fluidswarm_agent::sph::NFIELDS;
 use libfuzzer_sys::fuzz_target;
 
+/// Every field the reader keeps (absent ones filled in), in key order: a field added to the report shows here.
+const KEPT: [&str; 25] = [
+    "agent",
+    "command_seq",
+    "commands_accepted",
+    "cpu_seconds",
+    "cpu_seconds_at_start",
+    "deaths_seen",
+    "dropped_out",
+    "first_command_at",
+    "id",
+    "lost",
+    "msgs_received",
+    "neighbours",
+    "particle_class",
+    "pss_mb",
+    "rejected",
+    "rss_mb",
+    "session_opened_at",
+    "stale",
+    "state",
+    "status",
+    "steps",
+    "t_end",
+    "t_start",
+    "timeouts",
+    "waypoint_index",
+];
+
 fuzz_target!(|data: &[u8]| {
     let Some(m) = final_report::decode(data) else { return };
-    assert_eq!(m.len(), 24, "{m:?}");
+    let mut keys: Vec<&str> = m.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(keys, KEPT, "{m:?}");
+    for name in ["rss_mb", "pss_mb", "cpu_seconds"] {
+        assert!(m[name].as_f64().is_some_and(|x| x.abs() <= MAX_ABS), "{name}: {m:?}");
+    }
     let state = m["state"].as_array().unwrap();
     assert!((MIN_STATE..=NFIELDS).contains(&state.len()));
     assert!(state.iter().all(|v| v.as_f64().is_some_and(|x| x.abs() <= MAX_ABS)));
