@@ -49,38 +49,19 @@ def test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents()
         router.wait(10)
 
 
-ROGUE = r"""
-import json, sys, zenoh
-conf = zenoh.Config()
-conf.insert_json5("mode", '"client"')
-conf.insert_json5("connect/endpoints", json.dumps([sys.argv[1]]))
-conf.insert_json5("connect/timeout_ms", "5000")
-conf.insert_json5("scouting/multicast/enabled", "false")
-conf.insert_json5("transport/auth/usrpwd/user", json.dumps(sys.argv[2]))
-conf.insert_json5("transport/auth/usrpwd/password", json.dumps(sys.argv[3]))
-try:
-    zenoh.open(conf).close()
-    print("connected")
-except zenoh.ZError:
-    print("locked_out")
-"""
-
-
 def test_region_shares_over_two_routers_joined_on_loopback_with_a_users_file_of_auth_file_stay_exact(tmp_path):
     """The multi-host set-up of docs/multi-host.md on one machine: `fluidswarm auth-file` makes the users file,
     two routers hold it (the second connected to the first), each `verify --share K/2` is a client of its own
     router: every state between the two regions crosses the router-to-router link, and the result is the
     single-host one. 36 agents are a 6 x 6 block, cut into its left and right halves (an id range would be its
     lower and upper rows)."""
-    from agent.protocol.access import read_users_file
     from agent.sph.regions import regions
     from agent.sph.setups import spread_block
 
-    users, other = tmp_path / "users.txt", tmp_path / "other.txt"
-    for path in (users, other):
-        made = subprocess.run(FS + ["auth-file", "--agents", "36", "--out", str(path)], capture_output=True, text=True)
-        assert made.returncode == 0, made.stderr
-        assert oct(path.stat().st_mode & 0o777) == "0o600"
+    users = tmp_path / "users.txt"
+    made = subprocess.run(FS + ["auth-file", "--agents", "36", "--out", str(users)], capture_output=True, text=True)
+    assert made.returncode == 0, made.stderr
+    assert oct(users.stat().st_mode & 0o777) == "0o600"
     halves = [sorted(r.tolist()) for r in regions(spread_block(36).states[:, :2], 2)]
     assert halves[0] == [k for k in range(36) if k % 6 < 3]  # the left half: not an id range
     p1, p2 = free_port(), free_port()
@@ -93,14 +74,8 @@ def test_region_shares_over_two_routers_joined_on_loopback_with_a_users_file_of_
         assert routers[0].stdout.readline().startswith("router="), "router A did not come up"
         routers.append(subprocess.Popen(FS + ["router", "--listen", b, "--connect", a] + auth, **kw))
         assert routers[1].stdout.readline().startswith("router="), "router B did not come up"
-        # the users file is what opens a session: another file's launcher (the right name, another password) is
-        # locked out of router A
-        stranger = next(c for c in read_users_file(str(other)) if c.user == "launcher")
-        rogue = subprocess.run(
-            [sys.executable, "-c", ROGUE, a, stranger.user, stranger.password], capture_output=True, text=True
-        )
-        assert rogue.stdout.strip() == "locked_out", rogue.stdout + rogue.stderr
-        common = ["verify", "--agents", "36", "--steps", "120", "--run", "regions", "--json"]
+        # (another file's launcher, the right name and another password, is locked out: the next test)
+        common = ["verify", "--agents", "36", "--steps", "60", "--run", "regions", "--json"]
         pa = subprocess.Popen(FS + common + ["--share", "1/2", "--connect", a] + auth, **kw)
         env = dict(os.environ, FLUIDSWARM_AUTH_FILE=str(users))  # host B's launcher: the file from the environment
         pb = subprocess.Popen(FS + common + ["--share", "2/2", "--connect", b], env=env, **kw)
@@ -121,7 +96,7 @@ def test_region_shares_over_two_routers_joined_on_loopback_with_a_users_file_of_
 
 
 def test_a_launcher_whose_users_file_the_router_does_not_hold_fails_in_one_line(tmp_path):
-    """Credentials from another users file: zenoh retries for the launcher's 20 s (LAUNCHER_CONNECT_TIMEOUT_MS),
+    """Credentials from another users file: zenoh retries for the launcher's 8 s (LAUNCHER_CONNECT_TIMEOUT_MS),
     then the launcher says so in one line naming the router and the user, exit 1, no agent started."""
     users, other = tmp_path / "users.txt", tmp_path / "other.txt"
     for path in (users, other):
@@ -144,7 +119,7 @@ def test_a_launcher_whose_users_file_the_router_does_not_hold_fails_in_one_line(
             done.stderr
         )
         assert "run=" not in done.stdout  # nothing started
-        assert took < 60, f"{took:.0f} s to say so"
+        assert took < 30, f"{took:.0f} s to say so"
     finally:
         router.terminate()
         router.wait(10)

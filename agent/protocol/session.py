@@ -12,7 +12,7 @@ from agent.protocol.access import PASSWORD_ENV, USER_ENV
 # A launcher joining another host's router is one process, not hundreds at once: it need not outlast a flooded
 # accept queue, and a router that refuses its credentials looks to zenoh like one that is absent (it retries
 # both alike), so its user hears of either after this long, not after the agents' 2 minutes.
-LAUNCHER_CONNECT_TIMEOUT_MS = 20000
+LAUNCHER_CONNECT_TIMEOUT_MS = 8000
 
 
 def client_config(
