@@ -94,7 +94,8 @@ class RouterProcess:
             shutil.rmtree(private, ignore_errors=True)  # the router has read its configuration (or failed)
         # Kept open (its name is gone with the directory): what the router says after `ready` is read when it is
         # lost (`last_words`), so a router that dies mid-run is named with its reason, not only its exit code.
-        self._errors = errors
+        assert errors is not None  # opened before the router started, which it did
+        self._errors: IO[str] = errors
         self.zid = zid
         self._lock = threading.Lock()  # one request and its answer at a time (late joiners spawn from threads)
         self._last_rejected: dict[str, int] = {}  # the relay's counts when the router closed
@@ -121,11 +122,10 @@ class RouterProcess:
 
     def last_words(self) -> str:
         """The last line the router wrote to its stderr since it started (its reason when it ends itself), or ''."""
-        errors = getattr(self, "_errors", None)
-        if errors is None or errors.closed:
+        if self._errors.closed:
             return ""
-        errors.seek(0)
-        lines = [line.strip() for line in errors.read().splitlines() if line.strip()]
+        self._errors.seek(0)
+        lines = [line.strip() for line in self._errors.read().splitlines() if line.strip()]
         return lines[-1] if lines else ""
 
     def ask(self, request: str) -> str:
@@ -165,8 +165,7 @@ class RouterProcess:
         except subprocess.TimeoutExpired:
             pass
         self._kill()
-        if getattr(self, "_errors", None) is not None:
-            self._errors.close()
+        self._errors.close()
 
 
 class CompiledRelay:

@@ -26,6 +26,19 @@ from fluidswarm.recording.reader import completeness, load_run, read_run
 from fluidswarm.scenario import load_scenario, parse_scenario
 
 EXAMPLES = {"mcap": 40, "scenario": 100, "users": 100}  # the costlier targets per input
+
+
+def bounded(examples: int):
+    """Hypothesis settings of these tests: `examples` inputs, the same ones every run, no deadline or database."""
+    return settings(
+        max_examples=examples,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    )
+
+
 FOUND = sorted((REPO / "tests" / "vectors" / "fuzz").glob("python_*/*"))
 
 
@@ -59,13 +72,7 @@ def test_seeds_pass(name):
 def test_random_and_mutated_inputs(name):
     target, pool = python_targets.TARGETS[name], seeds.PYTHON[name]()
 
-    @settings(
-        max_examples=EXAMPLES.get(name, 150),
-        deadline=None,
-        derandomize=True,
-        database=None,
-        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-    )
+    @bounded(EXAMPLES.get(name, 150))
     @given(st.one_of(st.binary(max_size=300), mutated(pool)))
     def run(data):
         target(data)
@@ -105,13 +112,7 @@ def test_in_memory_decoders_read_as_the_files_do(name, tmp_path):
         path.write_bytes(data)
         assert _outcome(name, path, None) == _outcome(name, path, data)
 
-    @settings(
-        max_examples=EXAMPLES[name],
-        deadline=None,
-        derandomize=True,
-        database=None,
-        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-    )
+    @bounded(EXAMPLES[name])
     @given(st.one_of(st.binary(max_size=300), mutated(pool)))
     def run(data):
         path.write_bytes(data)

@@ -41,28 +41,27 @@ fn cpu_seconds() -> f64 {
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
-/// Peak resident memory (VmHWM) of this process in MB: its own, not the forking parent's (profile.md).
-fn peak_rss_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
+/// The `field` line of a /proc file of ours (`VmHWM:     9244 kB`) in MB; 0 if absent.
+fn proc_mb(file: &str, field: &str) -> f64 {
+    std::fs::read_to_string(file)
         .ok()
         .and_then(|s| {
-            s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+            s.lines().find(|l| l.starts_with(field)).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
         })
         .map(|kb| kb / 1024.0)
         .unwrap_or(0.0)
+}
+
+/// Peak resident memory (VmHWM) of this process in MB: its own, not the forking parent's (profile.md).
+fn peak_rss_mb() -> f64 {
+    proc_mb("/proc/self/status", "VmHWM:")
 }
 
 /// This process's proportional set size (Pss of /proc/self/smaps_rollup) in MB: its private pages plus its share
 /// of those it maps with others. RSS counts the agent program's text whole in every agent (~10 of its ~12 MB),
 /// so N agents' RSS adds up to far more than they take (docs/benchmarks/profile.md).
 fn pss_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/smaps_rollup")
-        .ok()
-        .and_then(|s| {
-            s.lines().find(|l| l.starts_with("Pss:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .map(|kb| kb / 1024.0)
-        .unwrap_or(0.0)
+    proc_mb("/proc/self/smaps_rollup", "Pss:")
 }
 
 /// What the shell holds for the run: the session, its declarations, the process figures of the report.
