@@ -75,8 +75,23 @@ def machine() -> Machine:
     )
 
 
-def lockstep(n: int, steps: int) -> LockstepRun:
+def process_cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds of process `pid` so far, all its threads, ended ones too; 0.0 once it is gone.
+
+    From the kernel's per-process CPU clock (clock_getcpuclockid(3): clock id ((~pid) << 3) | CPUCLOCK_SCHED),
+    nanoseconds, where /proc/PID/stat counts 10 ms ticks: too coarse for a short run's router."""
+    try:
+        return time.clock_gettime((~pid << 3) | 2)
+    except OSError:
+        return 0.0
+
+
+def lockstep(n: int, steps: int, record: bool = True) -> LockstepRun:
+    """`record`: with the run's recorder writing an MCAP (as every user's run does; into a temporary folder,
+    removed after), so its CPU is part of all_cpu_us_per_agent_step; False for a side-by-side with older trees."""
     import resource
+    import shutil
+    import tempfile
 
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
     from agent.sph.reference import PerParticleDriver, VectorisedDriver
@@ -86,10 +101,39 @@ def lockstep(n: int, steps: int) -> LockstepRun:
     # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
     # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),
     # not after run_swarm's default of 0.004 s x N per step (14 min at N = 1000).
-    kind = Block(n, steps, startup_timeout=60.0 + 0.12 * n, run_timeout=120.0 + 0.5 * steps, kind="bench")
+    scratch = Path(tempfile.mkdtemp(prefix="fluidswarm-bench-")) if record else None
+    kind = Block(
+        n,
+        steps,
+        startup_timeout=60.0 + 0.12 * n,
+        run_timeout=120.0 + 0.5 * steps,
+        kind="bench",
+        record=str(scratch / f"bench_{n}.mcap") if scratch else None,
+    )
+    # The helper processes' CPU while the agents step (start-up left out, as for the agents' own figure): the
+    # embedded router, the recorder and this process (the launcher: its pacer, relay requests, supervisor).
+    helpers: dict[str, list[float]] = {}
+
+    def helper_pids(run: Run) -> dict[str, int]:
+        la = run.launcher
+        router = la.router.process.proc.pid if la.router.process is not None else None
+        recorder = la.recorder.proc.pid if la.recorder.proc is not None else None
+        pids = {"router": router, "recorder": recorder, "launcher": os.getpid()}
+        return {k: v for k, v in pids.items() if v is not None}
+
+    def snapshot(run: Run) -> None:
+        for name, pid in helper_pids(run).items():
+            helpers.setdefault(name, []).append(process_cpu_seconds(pid))
+
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    with Run(kind, RunOptions(f"bench_{n}", None, NEIGHBOUR_TIMEOUT.benchmark)) as run:
-        kind.drive(run)
+    try:
+        with Run(kind, RunOptions(f"bench_{n}", None, NEIGHBOUR_TIMEOUT.benchmark)) as run:
+            run.on_start(lambda: snapshot(run))
+            run.on_stop(lambda: snapshot(run))
+            kind.drive(run)
+    finally:
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     res, setup = run.record, kind.setup
     done = [r for r in res.finals.values() if r.done]
@@ -102,6 +146,10 @@ def lockstep(n: int, steps: int) -> LockstepRun:
         for r in done
         if r.cpu_seconds_at_start is not None and r.steps
     ]
+    agent_steps = sum(r.steps for r in done)
+    helpers_us = {  # name -> its CPU during the stepping per agent-step [µs]
+        name: 1e6 * (cpu[-1] - cpu[0]) / agent_steps for name, cpu in helpers.items() if len(cpu) == 2 and agent_steps
+    }
 
     central_steps = min(steps, 60)
     t = time.perf_counter()
@@ -129,6 +177,10 @@ def lockstep(n: int, steps: int) -> LockstepRun:
         decentralisation_ratio=round(pp_sps / sps, 3) if sps else None,
         decentralisation_ratio_vectorised=round(vec_sps / sps, 3) if sps else None,
         pss_mb_per_agent=round(float(np.mean(pss)), 1) if pss else None,
+        all_cpu_us_per_agent_step=(
+            round(1e6 * float(np.mean(stepping)) + sum(helpers_us.values()), 1) if stepping and helpers_us else None
+        ),
+        helpers_cpu_us_per_agent_step={k: round(v, 1) for k, v in sorted(helpers_us.items())},
     )
 
 
@@ -246,18 +298,22 @@ def write_outputs(record: BenchRecord, out: Path) -> None:
         "",
         (
             "| N | steps/s | wall s | start-up s | msgs/agent/step | neighbours | CPU s | CPU ms/agent-step "
+            "| all processes' CPU µs/agent-step (the helpers') "
             "| RSS MB/agent | PSS MB/agent | RSS MB total | per-particle central steps/s | vectorised steps/s "
             "| decentralised/central time |"
         ),
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in record.runs:
         if isinstance(r, FailedRun):
-            lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 12)
+            lines.append(f"| {r.n} | failed: {r.error} |" + " |" * 13)
             continue
+        helpers = ", ".join(f"{k} {v}" for k, v in (r.helpers_cpu_us_per_agent_step or {}).items())
         lines.append(
             f"| {r.n} | {r.steps_per_second} | {r.wall_seconds} | {r.startup_seconds} | {r.msgs_per_agent_step} | "
-            f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | {r.rss_mb_per_agent} | "
+            f"{r.neighbours_per_agent} | {r.cpu_seconds} | {r.cpu_ms_per_agent_step} | "
+            f"{r.all_cpu_us_per_agent_step} ({helpers}) | "
+            f"{r.rss_mb_per_agent} | "
             f"{r.pss_mb_per_agent} | {r.rss_mb_total} | "
             f"{r.centralised_steps_per_second} | {r.vectorised_steps_per_second} | {r.decentralisation_ratio} |"
         )
@@ -356,6 +412,7 @@ def run(args) -> int:
             continue
         print(
             f"n={n} steps_per_second={r.steps_per_second} msgs_per_agent_step={r.msgs_per_agent_step} "
+            f"cpu_us_per_agent_step={r.cpu_us_per_agent_step} all_cpu_us_per_agent_step={r.all_cpu_us_per_agent_step} "
             f"rss_mb_per_agent={r.rss_mb_per_agent} pss_mb_per_agent={r.pss_mb_per_agent} "
             f"decentralisation_ratio={r.decentralisation_ratio}",
             file=lines,

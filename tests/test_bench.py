@@ -69,3 +69,10 @@ def test_bench_quick_writes_every_field(tmp_path):
     assert all(1 < run.rss_mb_per_agent <= 15 for run in res.runs)
     # Pss shares the program's pages among the agents: well below RSS with 9 agents mapping one binary
     assert all(0 < run.pss_mb_per_agent < 0.6 * run.rss_mb_per_agent for run in res.runs)
+    # every process of the run while it steps (issue 32): the router, the recorder and the launcher beside the agents
+    for run in res.runs:
+        helpers = run.helpers_cpu_us_per_agent_step
+        assert helpers is not None and set(helpers) == {"router", "recorder", "launcher"}, run
+        assert helpers["router"] > 0 and helpers["launcher"] > 0, helpers  # both handle every state
+        total = run.cpu_us_per_agent_step + sum(helpers.values())
+        assert abs(run.all_cpu_us_per_agent_step - total) <= 0.5, run
