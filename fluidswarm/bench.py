@@ -203,40 +203,51 @@ def gesture_image(cls: str) -> Path | None:
     return cands[0] if cands else None
 
 
-def imitation_seconds(agents: int, steps: int | None) -> tuple[dict, dict, dict[str, Formation | None]]:
+def imitation_seconds(
+    agents: int, steps: int | None, side_by_side: bool = False
+) -> tuple[dict, dict, dict[str, Formation | None]]:
     """Wall time of `fluidswarm imitate` per gesture (start-up included), the fidelity it reached, and when
-    its formation settled ({"seconds": simulated, "settled": false when the step cap ended it})."""
+    its formation settled ({"seconds": simulated, "settled": false when the step cap ended it}).
+    `side_by_side` (--quick, which checks that every field is produced): the three run at once, so their
+    times share the machine and are no figures."""
     out: dict = {}
     fid: dict = {}
     formed: dict = {}
-    for gesture, cls in GESTURES.items():
-        image = gesture_image(cls)
-        if image is None:
-            out[gesture] = fid[gesture] = formed[gesture] = None
-            continue
-        cmd = [
-            sys.executable,
-            "-m",
-            "fluidswarm",
-            "imitate",
-            str(image),
-            "--agents",
-            str(agents),
-            "--out",
-            f"out/bench/{gesture}",
-            "--json",
-        ]
-        if steps:
-            cmd += ["--steps", str(steps)]
+    running: dict[str, tuple[subprocess.Popen, float]] = {}
+
+    def start(gesture: str, image: Path) -> None:
+        cmd = [sys.executable, "-m", "fluidswarm", "imitate", str(image), "--agents", str(agents)]
+        cmd += ["--out", f"out/bench/{gesture}", "--json"] + (["--steps", str(steps)] if steps else [])
         print(f"gesture {gesture}: {agents} agents ...", file=sys.stderr, flush=True)
-        t = time.perf_counter()
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        out[gesture] = round(time.perf_counter() - t, 2) if r.returncode == 0 else None
-        record = json.loads(r.stdout) if r.returncode == 0 else None
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        running[gesture] = (proc, time.perf_counter())
+
+    def finish(gesture: str) -> None:
+        proc, t = running[gesture]
+        stdout, _ = proc.communicate()
+        del running[gesture]
+        out[gesture] = round(time.perf_counter() - t, 2) if proc.returncode == 0 else None
+        record = json.loads(stdout) if proc.returncode == 0 else None
         fid[gesture] = record["fidelity"]["iou"] if record else None
         formed[gesture] = (
             Formation(seconds=record["formation_seconds"], settled=record["formation_settled"]) if record else None
         )
+
+    try:
+        for gesture, cls in GESTURES.items():
+            image = gesture_image(cls)
+            if image is None:
+                out[gesture] = fid[gesture] = formed[gesture] = None
+                continue
+            start(gesture, image)
+            if not side_by_side:
+                finish(gesture)
+        for gesture in list(running):
+            finish(gesture)
+    finally:  # interrupted: no imitation outlives the bench
+        for proc, _t in running.values():
+            proc.kill()
+            proc.wait()
     return out, fid, formed
 
 
@@ -264,8 +275,9 @@ def region_controller_timing() -> dict:
     return out
 
 
-def perception_timings() -> dict:
-    """Eigen-image training on the shared hand set (features + fit, 'best' method), inference per image."""
+def perception_timings(classes: list[str] | None = None) -> dict:
+    """Eigen-image training on the shared hand set (features + fit, 'best' method), inference per image;
+    `classes`: only these (--quick: three of the ten, a field check, not the figure)."""
     out: dict[str, Any] = {"eigen_training_seconds": None, "eigen_inference_ms": None}
     from threadpoolctl import threadpool_limits
 
@@ -275,7 +287,7 @@ def perception_timings() -> dict:
     if not SHARED_HANDS.is_dir():
         out["perception_error"] = f"{SHARED_HANDS} missing"
         return out
-    images, labels = load_folder(SHARED_HANDS)[:2]
+    images, labels = load_folder(SHARED_HANDS, classes)[:2]
     with threadpool_limits(1):
         clf = EigenClassifier(method="best")
         t = time.perf_counter()
@@ -420,8 +432,10 @@ def run(args) -> int:
         )
         runs.append(r)
     print("gesture imitation ...", file=sys.stderr, flush=True)
-    gestures, gesture_fidelity, gesture_formation = imitation_seconds(gesture_agents, 60 if args.quick else None)
-    perception = perception_timings()
+    gestures, gesture_fidelity, gesture_formation = imitation_seconds(
+        gesture_agents, 60 if args.quick else None, side_by_side=args.quick
+    )
+    perception = perception_timings(["0", "1", "2"] if args.quick else None)
     perception.update(region_controller_timing())
     record = BenchRecord(
         date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
