@@ -220,3 +220,30 @@ def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorde
     assert [(e.kind, e.step) for e in run.events if e.agent == 2 and e.step > 0] == [("died", 4), ("started", 7)]
     assert check(path) == (True, 10, 0)
     assert recorded(path)[2] == {0, 1, 2, 3, 7, 8, 9}
+
+
+def test_a_routers_batch_is_taken_record_by_record_and_a_bad_one_is_counted(recorder):
+    """The relay's batches (docs/protocol.md "State batches"): whole records on an exact batch key; a record
+    that does not decode is dropped alone, a batch off its key or cut inside a record entirely."""
+    rec, clock, path = recorder
+    batch_key = f"{keys.PREFIX}/{RUN}/batch/5a3f"
+
+    def record(agent: int, step: int, rho: float = 1.0) -> bytes:
+        state = np.zeros(NFIELDS)
+        state[0], state[1], state[4] = agent, step * 0.01, rho
+        return encode_state(agent, step, state)
+
+    rec.inbox.put((5, (b"".join(record(j, 0) for j in range(3)), batch_key)))
+    rec.inbox.put((5, (record(0, 1) + record(1, 1, rho=-1.0) + record(2, 1), batch_key)))  # agent 1's is bad
+    rec.inbox.put((5, (record(1, 1), f"{keys.PREFIX}/{RUN}/batch/*")))  # a wildcard: no router's key
+    rec.inbox.put((5, (record(1, 1), f"{keys.PREFIX}/other-run/batch/5a3f")))
+    rec.inbox.put((5, (record(1, 1)[:60], batch_key)))
+    rec.pump(0.0)
+    assert rec.rejected == 4
+    for j in range(3):
+        post(rec, j, 2)
+    clock.t += steps.RELEASE_SECONDS + 1
+    rec.pump(0.0)
+    rec.finish(quiet=0.0)
+    rec.writer.close()
+    assert recorded(path) == {0: {0, 1, 2}, 1: {0, 2}, 2: {0, 1, 2}}

@@ -176,7 +176,7 @@ run = sys.argv[2]
 stop = threading.Event()
 signal.signal(signal.SIGTERM, lambda *a: stop.set())
 session = zenoh.open(client_config([sys.argv[1]]))  # FLUIDSWARM_ZENOH_USER/PASSWORD: agent-16's
-did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0}
+did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0, "batch": 0}
 WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
 def forge(sample):
     data = bytearray(sample.payload.to_bytes())
@@ -193,6 +193,9 @@ def forge(sample):
     did["forged_own_key"] += 1
     session.put(WILD[did["wildcard"] % len(WILD)], bytes(data))
     did["wildcard"] += 1
+    # as if a router's relay batched it (a zid of digits: no id letter, so no bit rule denies it)
+    session.put(f"fluidswarm/{run}/batch/0123456789", bytes(data))
+    did["batch"] += 1
 # REMOTE: its own puts on matching keys are not handed back to it: zenoh delivers a session's puts to its own
 # subscribers inside put(), so put() in forge() (and on the wildcard keys) would wait on forge()'s queue: deadlock
 sub = session.declare_subscriber(f"fluidswarm/{run}/state/**", forge, allowed_origin=zenoh.Locality.REMOTE)
@@ -233,7 +236,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     monkeypatch.setenv("FLUIDSWARM_ACCESS", "acl")  # per-process rights (states then carry the id in the key)
     setup = spread_block(16)
     steps = 150
-    seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0}
+    seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0, "batch": 0}
 
     def observe(sample):  # on the router's own session: what the router let through
         key, data = str(sample.key_expr), sample.payload.to_bytes()
@@ -241,6 +244,10 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
             seen["wildcard"] += 1
         elif "/state/" in key and len(data) == 104 and int.from_bytes(data[12:14], "little") == MARK:
             seen["forged_own_key" if keys.id_from_key(key) == 16 else "forged_other_ids"] += 1
+        elif "/batch/" in key and len(data) % 104 == 0:  # the relay's batches hold no forged record
+            seen["batch"] += any(
+                int.from_bytes(data[k + 12 : k + 14], "little") == MARK for k in range(0, len(data), 104)
+            )
         elif "/ctl/" in key and (key.rsplit("/", 1)[1], data) in ROGUE_CTL:  # not the launcher's own
             seen["ctl"] += 1
         elif key.endswith("/command"):
@@ -279,8 +286,10 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     ref = PerParticleDriver(setup.ids, setup.states, setup.controls, setup.params).run(steps)
     got = np.array([res.finals[i].state for i in setup.ids])
     assert sent["forged_other_ids"] > 100 and sent["ctl"] > 100 and sent["command"] > 10 and sent["wildcard"] > 100
-    # refused by the router: none reached even its own session
+    assert sent["batch"] > 50
+    # refused by the router: none reached even its own session (nor a batch for the recorder)
     assert seen_during_run["forged_other_ids"] == 0 and seen_during_run["ctl"] == 0 and seen_during_run["command"] == 0
+    assert seen_during_run["batch"] == 0
     # under its own id the router lets it speak (it may lie about itself): a record naming someone else under
     # its key is dropped by the launcher's relay, which puts only records naming their key's agent on the cell
     # keys (agents hear states there only); wildcard keys pass the router (its deny rules name key patterns,

@@ -23,7 +23,8 @@ _AGENT_RE = re.compile(r"^agent-(0|[1-9][0-9]{0,9})$")
 _ANY_RUN = f"{keys.PREFIX}/*"
 _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
-_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator", "relay")
+# batch: the routers' relays' batches of states for the recorder (agent/native/src/relay.rs), no client's to put
+_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator", "relay", "batch")
 
 
 def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:

@@ -77,6 +77,22 @@ def state_key_vouches(key: str, record_id: int) -> bool:
     return state_sender(key) == record_id
 
 
+_ZID_RE = re.compile(r"^[0-9a-f]{1,32}$")
+
+
+def batch_expr(run: str) -> str:
+    """The routers' relays' batches of the run's states, for the recorder (docs/protocol.md "State batches";
+    agent/native/src/keys.rs batch_key puts them on `fluidswarm/<run>/batch/<router zid>`)."""
+    return f"{PREFIX}/{run}/batch/*"
+
+
+def is_batch_key(run: str, key: str) -> bool:
+    """Is `key` exactly a router's batch key of `run` (no wildcard: only routers may put there, the access
+    rules deny every other role `batch/**`, agent/protocol/acl.py)?"""
+    chunks = key.split("/")
+    return len(chunks) == 4 and chunks[:3] == [PREFIX, run, "batch"] and bool(_ZID_RE.match(chunks[3]))
+
+
 def state_observed_expr(run: str, id_keys: bool) -> str:
     """Where passive observers (recorder, launcher) take every state of the run once: from the agents' id keys
     under per-process rights (the relay's copies on the cell keys would be the same states again), else from

@@ -142,10 +142,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         _subs = [  # held (declared) until the recording ends
             # On zenoh's receiving thread (indirect=False): the callback only enqueues, and a Python thread
-            # hand-over per state (N per step) was most of this process's CPU at N = 300.
+            # hand-over per message was most of this process's CPU at N = 300.
+            # Under per-process rights the routers' relays send the states in batches (docs/protocol.md "State
+            # batches"): one delivery per step, not one per state (45 µs of this process per agent-step at N = 50
+            # went on those, issue 32); without them (levels none, auth: no relay) each state on its cell key.
             session.declare_subscriber(
-                keys.state_observed_expr(args.run, args.state_keys == "id"),
-                zenoh.handlers.Callback(recorder.on_state, indirect=False),
+                keys.batch_expr(args.run), zenoh.handlers.Callback(recorder.on_batch, indirect=False)
+            )
+            if args.state_keys == "id"
+            else session.declare_subscriber(
+                keys.state_observed_expr(args.run, False), zenoh.handlers.Callback(recorder.on_state, indirect=False)
             ),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),

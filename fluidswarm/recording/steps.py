@@ -19,7 +19,7 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
 from agent.protocol.report import Status, decode_report
-from agent.protocol.wire import decode_state
+from agent.protocol.wire import STATE_SIZE, decode_state
 from agent.sph.particle import HEADING, RHO, VX, VY, P, X, Y
 from agent.sph.robot import RobotKind, body_centres
 from fluidswarm.recording.writer import RunWriter
@@ -40,6 +40,9 @@ END_STEPS = 3  # the last steps of a run may lack states cut off by its end (Rec
 # s an agent's final report may come after its token's removal (declarations travel before data): how long its
 # leaving waits for the report before it is written as a death
 REPORT_GRACE_SECONDS = 1.0
+# s an agent's last states may come after its token's removal: a router's relay sends its batches of states every
+# 10 ms (agent/native/src/relay.rs BATCH_WAIT); its token goes straight to the recorder
+BATCH_GRACE_SECONDS = 0.1
 LEFT = {Status.DONE: ("finished", "finished"), Status.STOPPED: ("stopped", "was stopped")}  # kind, wording
 
 
@@ -66,6 +69,7 @@ class Recorder:
         self.first_seen: dict[int, float] = {}
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.gone_at: dict[int, float] = {}  # agent -> when its token went (monotonic s), until its event is written
+        self.leaving: dict[int, float] = {}  # agent -> when its token went, until BATCH_GRACE_SECONDS later
         self.reported: dict[int, Status] = {}  # agent -> how its final report says it ended
         self.skipping: dict[int, int] = {}  # agent -> the step it comes back at, after steps it skipped (rejoined)
         self.next_step = 0
@@ -76,6 +80,9 @@ class Recorder:
     # callbacks: decode nothing, enqueue
     def on_state(self, sample) -> None:
         self.inbox.put((0, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_batch(self, sample) -> None:
+        self.inbox.put((5, (sample.payload.to_bytes(), str(sample.key_expr))))
 
     def on_alive(self, sample) -> None:
         self.inbox.put((1, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
@@ -105,32 +112,21 @@ class Recorder:
             if decoded is None or not keys.state_key_vouches(key, decoded[0]):
                 self.rejected += 1
                 return
-            j, step, cls, values = decoded
-            if step < self.next_step or step > self.newest + 100000:
-                return  # already written (a late straggler) or absurd
-            if j in self.joining:
-                self.joining.discard(j)
-                self.alive.add(j)
-                self.writer.write_event(
-                    self.t(step),
-                    "info",
-                    f"agent/{j}",
-                    f"agent {j} joined at step {step}",
-                    kind="started",
-                    agent=j,
-                    step=step,
-                )
-            if step not in self.pending:
-                self.first_seen[step] = time.monotonic()
-            self.pending.setdefault(step, {})[j] = (cls, values)
-            self.newest = max(self.newest, step)
-            self.last_step[j] = max(self.last_step.get(j, -1), step)
-            self.heard_at[j] = self.last_message
-            if j in self.stopped:
-                self.stopped.discard(j)
-                self.writer.write_event(
-                    self.t(step), "info", f"agent/{j}", f"agent {j} reports again", kind="started", agent=j, step=step
-                )
+            self._state(*decoded)
+        elif kind == 5:
+            # A router's relay's batch (docs/protocol.md "State batches"): whole state records, each taken
+            # from its sender's own key and checked against it by the relay; on an exact batch key, which only
+            # routers may put. Each record is still decoded (untrusted bytes, whoever vouched).
+            data, key = data
+            if not keys.is_batch_key(self.run, key) or len(data) % STATE_SIZE:
+                self.rejected += 1
+                return
+            for at in range(0, len(data), STATE_SIZE):
+                decoded, _reason = decode_state(data[at : at + STATE_SIZE])
+                if decoded is None:
+                    self.rejected += 1
+                else:
+                    self._state(*decoded)
         elif kind == 1:
             key, up = data
             j = keys.id_from_key(key)
@@ -153,12 +149,9 @@ class Recorder:
             elif j in self.joining:
                 self.joining.discard(j)
             elif j in self.alive:
-                self.alive.discard(j)
-                self.stopped.discard(j)
-                # Its last state must be written before its death: the event waits for that step.
-                self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
-                self.gone_at[j] = time.monotonic()
-                self._write_deaths()
+                # Its last states may still be in a router's batch (up to BATCH_GRACE_SECONDS behind its token):
+                # it stays expected until then, and its death is placed after the last state heard by then.
+                self.leaving.setdefault(j, time.monotonic())
         elif kind == 2:
             data, key = data
             ev = decode_event(data)
@@ -186,6 +179,48 @@ class Recorder:
                 self.rejected += 1  # malformed, or under another agent's key
                 return
             self.reported[report.id] = report.status
+
+    def _state(self, j: int, step: int, cls: int, values) -> None:
+        """One decoded state record, vouched for: kept for its step's message."""
+        if step < self.next_step or step > self.newest + 100000:
+            return  # already written (a late straggler) or absurd
+        if j in self.joining:
+            self.joining.discard(j)
+            self.alive.add(j)
+            self.writer.write_event(
+                self.t(step),
+                "info",
+                f"agent/{j}",
+                f"agent {j} joined at step {step}",
+                kind="started",
+                agent=j,
+                step=step,
+            )
+        if step not in self.pending:
+            self.first_seen[step] = time.monotonic()
+        self.pending.setdefault(step, {})[j] = (cls, values)
+        self.newest = max(self.newest, step)
+        self.last_step[j] = max(self.last_step.get(j, -1), step)
+        self.heard_at[j] = self.last_message
+        if j in self.stopped:
+            self.stopped.discard(j)
+            self.writer.write_event(
+                self.t(step), "info", f"agent/{j}", f"agent {j} reports again", kind="started", agent=j, step=step
+            )
+
+    def _take_leavers(self, force: bool = False) -> None:
+        """The agents whose token went BATCH_GRACE_SECONDS ago (all of them with `force`) leave the swarm."""
+        now = time.monotonic()
+        for j, since in list(self.leaving.items()):
+            if not force and now - since < BATCH_GRACE_SECONDS:
+                continue
+            del self.leaving[j]
+            self.alive.discard(j)
+            self.stopped.discard(j)
+            # Its last state must be written before its death: the event waits for that step.
+            self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
+            self.gone_at[j] = since
+        self._write_deaths()
 
     def _write_deaths(self, force: bool = False) -> None:
         now = time.monotonic()
@@ -317,8 +352,9 @@ class Recorder:
 
     def pump(self, timeout: float) -> None:
         try:
-            item = self.inbox.get(timeout=timeout)
+            item = self.inbox.get(timeout=timeout if not self.leaving else min(timeout, BATCH_GRACE_SECONDS))
         except queue.Empty:
+            self._take_leavers()
             self._flush()
             return
         self.handle(item)
@@ -327,6 +363,7 @@ class Recorder:
                 self.handle(self.inbox.get_nowait())
             except queue.Empty:
                 break
+        self._take_leavers()
         self._flush()
 
     def finish(self, quiet: float = FINISH_QUIET_SECONDS, limit: float = FINISH_LIMIT_SECONDS) -> None:
@@ -341,6 +378,7 @@ class Recorder:
                 break
         for _ in range(self.inbox.qsize()):  # a run stopped mid-stream: what is queued now, not what follows
             self.handle(self.inbox.get_nowait())
+        self._take_leavers(force=True)
         self._flush(force=True)
         self.next_step = max(self.next_step, max(self.dead_at.values(), default=0))
         self._write_deaths(force=True)

@@ -52,6 +52,11 @@ pub fn state_key(run: &str, id: u32) -> String {
 
 /// The key of the states of the agents in cell `c`, the id only in the record: what every agent hears on.
 /// Put by the agents themselves without per-process rights, by the launcher's relay under them.
+/// Where router `zid`'s relay sends its batches of the run's states for the observers (docs/protocol.md).
+pub fn batch_key(run: &str, zid: &str) -> String {
+    format!("{PREFIX}/{run}/batch/{zid}")
+}
+
 pub fn cell_key(run: &str, c: (i64, i64)) -> String {
     format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
 }
