@@ -146,9 +146,49 @@ pub fn host_relay_run<'a>(key: &'a str, zid: &str) -> Option<&'a str> {
     (tail.strip_prefix("relay/") == Some(zid) && keys::valid_run_name(run)).then_some(run)
 }
 
-/// The relay on `session`: one subscriber on every id key of the run, whose callback routes and puts each
-/// state on zenoh's receiving thread (no hand-over: the put is routed right there, as the router forwards
-/// any message).
+/// The cell keys a relay has declared, shared by its subscribers.
+#[cfg(feature = "net")]
+type Cells = std::sync::Arc<Mutex<HashMap<(i64, i64), KeyExpr<'static>>>>;
+
+/// A subscriber on `expr` (id keys of `table`'s run) whose callback routes and puts each state on zenoh's
+/// receiving thread (no hand-over: the put is routed right there, as the router forwards any message).
+#[cfg(feature = "net")]
+fn relay_subscriber(
+    session: &Session,
+    table: std::sync::Arc<RelayTable>,
+    cells: Cells,
+    expr: String,
+) -> zenoh::Result<zenoh::pubsub::Subscriber<()>> {
+    let out = session.clone();
+    session
+        .declare_subscriber(expr)
+        .callback(move |sample: Sample| {
+            let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
+                return;
+            };
+            let key = {
+                let mut cells = cells.lock().expect("cells lock");
+                match cells.get(&c) {
+                    Some(k) => k.clone(),
+                    None => match out.declare_keyexpr(keys::cell_key(&table.run, c)).wait() {
+                        Ok(k) => cells.entry(c).or_insert(k).clone(),
+                        Err(_) => return, // the session is closing
+                    },
+                }
+            };
+            // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
+            // states: a neighbour's full queue delays a state, never drops it.
+            let _ = out
+                .put(key, sample.payload().clone())
+                .congestion_control(CongestionControl::Block)
+                .allowed_destination(Locality::Remote)
+                .wait();
+        })
+        .wait()
+}
+
+/// The relay of a launcher's embedded router on `session`: one subscriber on every id key of the run (one
+/// host: every agent of the run is this router's).
 #[cfg(feature = "net")]
 pub struct StateRelay {
     _sub: zenoh::pubsub::Subscriber<()>,
@@ -157,35 +197,37 @@ pub struct StateRelay {
 #[cfg(feature = "net")]
 impl StateRelay {
     pub fn start(session: &Session, table: std::sync::Arc<RelayTable>) -> zenoh::Result<StateRelay> {
-        let cells: Mutex<HashMap<(i64, i64), KeyExpr<'static>>> = Mutex::default();
-        let out = session.clone();
         let expr = format!("{}/{}/state/*", keys::PREFIX, table.run);
-        let sub = session
-            .declare_subscriber(expr)
-            .callback(move |sample: Sample| {
-                let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
-                    return;
-                };
-                let key = {
-                    let mut cells = cells.lock().expect("cells lock");
-                    match cells.get(&c) {
-                        Some(k) => k.clone(),
-                        None => match out.declare_keyexpr(keys::cell_key(&table.run, c)).wait() {
-                            Ok(k) => cells.entry(c).or_insert(k).clone(),
-                            Err(_) => return, // the session is closing
-                        },
-                    }
-                };
-                // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
-                // states: a neighbour's full queue delays a state, never drops it.
-                let _ = out
-                    .put(key, sample.payload().clone())
-                    .congestion_control(CongestionControl::Block)
-                    .allowed_destination(Locality::Remote)
-                    .wait();
-            })
-            .wait()?;
+        let sub = relay_subscriber(session, table, Cells::default(), expr)?;
         Ok(StateRelay { _sub: sub })
+    }
+}
+
+/// A host router's relay of one run: a subscriber on each added agent's own id key, not on the run's `state/*`:
+/// a router's subscription reaches the routers it is linked to, so a wildcard one pulled every state of every
+/// other host across the router-to-router links, only to drop it (not its agent; docs/multi-host.md).
+#[cfg(feature = "net")]
+struct HostRelay {
+    table: std::sync::Arc<RelayTable>,
+    cells: Cells,
+    subs: HashMap<u32, zenoh::pubsub::Subscriber<()>>,
+}
+
+#[cfg(feature = "net")]
+impl HostRelay {
+    /// Answer `line` (`answer`); after a successful `add <id> …` follow that agent's id key (once).
+    fn request(&mut self, session: &Session, line: &str) -> Result<String, String> {
+        let text = answer(&self.table, line);
+        if let (true, ["add", id, _]) = (text == "ok", line.split_whitespace().collect::<Vec<_>>().as_slice()) {
+            let id: u32 = id.parse().map_err(|_| "add: bad id".to_string())?;
+            if let std::collections::hash_map::Entry::Vacant(e) = self.subs.entry(id) {
+                let expr = keys::state_key(&self.table.run, id);
+                let sub = relay_subscriber(session, self.table.clone(), self.cells.clone(), expr)
+                    .map_err(|e| format!("relay: {e}"))?;
+                e.insert(sub);
+            }
+        }
+        Ok(text)
     }
 }
 
@@ -199,7 +241,7 @@ pub struct HostRelays {
 #[cfg(feature = "net")]
 impl HostRelays {
     pub fn start(session: &Session) -> zenoh::Result<HostRelays> {
-        type Runs = HashMap<String, (std::sync::Arc<RelayTable>, StateRelay)>;
+        type Runs = HashMap<String, HostRelay>;
         let zid = session.zid().to_string();
         let runs: Mutex<Runs> = Mutex::default();
         let own = session.clone();
@@ -219,16 +261,12 @@ impl HostRelays {
                         } else if !runs.contains_key(run) && !line.starts_with("add ") {
                             Err(format!("run {run}: no agent of it is relayed here"))
                         } else {
-                            if !runs.contains_key(run) {
-                                let table = std::sync::Arc::new(RelayTable::new(run));
-                                match StateRelay::start(&own, table.clone()) {
-                                    Ok(relay) => {
-                                        runs.insert(run.to_string(), (table, relay));
-                                    }
-                                    Err(e) => return drop(query.reply_err(format!("relay: {e}")).wait()),
-                                }
-                            }
-                            Ok(answer(&runs[run].0, &line))
+                            let relay = runs.entry(run.to_string()).or_insert_with(|| HostRelay {
+                                table: std::sync::Arc::new(RelayTable::new(run)),
+                                cells: Cells::default(),
+                                subs: HashMap::new(),
+                            });
+                            relay.request(&own, &line)
                         }
                     }
                 };
