@@ -292,7 +292,7 @@ class Run:
         server = PlanServer(la, share_plans(la.run, len(everyone), self.salt, specs))
         self._on_stop.append(server.close)
         self._on_start.insert(0, server.mark_started)
-        print(f"run={la.run}: waiting for {o.workers} workers", file=sys.stderr, flush=True)
+        print(f"run={la.run} waiting_for_workers={o.workers}", flush=True)
         server.wait_workers(o.workers_timeout)
         return replace(
             plan,
