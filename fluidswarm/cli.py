@@ -27,6 +27,7 @@ COMMAND_MODULES = (
     "fluidswarm.bench",
     "fluidswarm.router",
     "fluidswarm.auth_file",
+    "fluidswarm.worker_command",
     "fluidswarm.reproduce.command",
 )
 

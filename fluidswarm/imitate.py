@@ -268,12 +268,31 @@ def imitate(
     progress: bool = False,
     robot: RobotModel = POINT,
     radio: RadioModel = PERFECT,
+    connect: str | None = None,
+    run: str | None = None,
+    workers: int = 0,
+    auth_file: str = "",
+    workers_timeout: float = 120.0,
 ) -> RunRecord:
-    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes."""
+    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes; with `workers`
+    (and `connect`, `run`, the users file) this host runs region 1 of 1 + workers and `fluidswarm worker`s on
+    other hosts the rest (docs/multi-host.md)."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 
     kind = FileImitation(str(input_path), agents, steps, controller, frame, robot=robot, radio=radio)
-    options = RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, progress=progress)
-    with Run(kind, options) as run:
-        kind.drive(run)
-    return run.record
+    options = RunOptions(
+        name,
+        Path(out),
+        NEIGHBOUR_TIMEOUT.imitation,
+        live=live,
+        commands=True,
+        progress=progress,
+        run=run,
+        connect=connect,
+        auth_file=auth_file,
+        workers=workers,
+        workers_timeout=workers_timeout,
+    )
+    with Run(kind, options) as this:
+        kind.drive(this)
+    return this.record

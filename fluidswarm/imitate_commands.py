@@ -10,6 +10,7 @@ from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
+from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
@@ -47,6 +48,7 @@ def register(sub) -> None:
     p.add_argument("--agents", type=int, default=60)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
+    add_workers_arguments(p)
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
@@ -74,6 +76,9 @@ def _imitate(args) -> int:
         raise UserError(f"--fps: must be in (0, 120], got {args.fps}")
     if not 0 < args.stall_seconds < 3600:
         raise UserError(f"--stall-seconds: must be in (0, 3600), got {args.stall_seconds}")
+    hosts = workers_options(args)
+    if hosts and args.camera is not None:
+        raise UserError("--workers: a file only (--camera runs on one host)")
     live = live_from_args(args)
     robot = robot_model(args.robot)
     radio = radio_model(radio_options(args))
@@ -108,6 +113,7 @@ def _imitate(args) -> int:
             live=live,
             robot=robot,
             radio=radio,
+            **hosts,
         )
     if args.json:
         print_json(record)

@@ -25,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, Self
 
@@ -83,6 +83,10 @@ class SwarmPlan:
     swarm_ids: list[int] | None = None
     startup_timeout: float | None = None
     run_timeout: float | None = None
+    start_timeout: float | None = None  # s an agent waits for the start signal (None: run_swarm's default)
+    report_ids: list[int] | None = None  # other hosts' agents whose reports the record holds (workers')
+    clock_owner: bool | None = None  # split run: this host puts ctl/clock (None: the host of the smallest id)
+    follow_all: bool = False  # split run: this host still follows every state (a settle watch reads them)
 
 
 @dataclass
@@ -107,6 +111,8 @@ class RunOptions:
     connect: str | None = None
     auth_file: str = ""
     realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
+    workers: int = 0  # with connect and run: the run's other hosts, `fluidswarm worker`s (docs/multi-host.md)
+    workers_timeout: float = 120.0  # s the main host waits for its workers before it starts anything of its own
 
 
 @dataclass
@@ -224,6 +230,9 @@ class Run:
             )
         except ValueError as exc:  # a bad run name
             raise UserError(str(exc)) from None
+        self.salt = ""
+        if o.workers:
+            self._derive_command_key()
         if o.out is not None:
             Path(o.out).mkdir(parents=True, exist_ok=True)
         return self
@@ -248,6 +257,52 @@ class Run:
             self.record = self._summarise(self.result)
             self._behind_real_time()
             self.kind.score(self)
+
+    def _derive_command_key(self) -> None:
+        """A run with workers: its command key from the users file and a fresh salt (the workers derive the
+        same from the salt in their share of the plan; agent/protocol/plan.py)."""
+        import secrets
+
+        from agent.protocol.plan import command_key
+        from swarmhost.workers import launcher_password
+
+        try:
+            password = launcher_password(self.launcher)
+        except BaseException:
+            self.launcher.close()
+            raise
+        self.salt = secrets.token_hex(16)
+        self.launcher.use_secret(command_key(password, self.launcher.run, self.salt))
+
+    def _serve_workers(self, plan: SwarmPlan) -> SwarmPlan:
+        """Cut the start layout into 1 + workers regions, serve regions 2.. as the run's plan and wait (bounded)
+        until every worker has fetched its share; this host runs region 1 and owns the run's clock."""
+        from agent.sph.regions import regions
+        from swarmhost.launcher import agent_specs, startup_budget
+        from swarmhost.workers import PlanServer, share_plans
+
+        o, la, setup = self.options, self.launcher, plan.setup
+        everyone = [int(i) for i in setup.ids]
+        if o.workers + 1 > len(everyone):
+            raise UserError(f"--workers {o.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
+        shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(setup.states[:, :2], o.workers + 1)]
+        start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + o.workers_timeout
+        extra = {**plan.sync.spec(), "start_timeout": start_timeout}
+        specs = [agent_specs(la, setup, plan.steps, ids, everyone, plan.per_agent, **extra) for ids in shares[1:]]
+        server = PlanServer(la, share_plans(la.run, len(everyone), self.salt, specs))
+        self._on_stop.append(server.close)
+        self._on_start.insert(0, server.mark_started)
+        print(f"run={la.run} waiting_for_workers={o.workers}", flush=True)
+        server.wait_workers(o.workers_timeout)
+        return replace(
+            plan,
+            ids=shares[0],
+            swarm_ids=everyone,
+            start_timeout=start_timeout,
+            report_ids=everyone,
+            clock_owner=True,
+            follow_all=True,
+        )
 
     # what a kind uses while it drives
     @property
@@ -302,7 +357,11 @@ class Run:
     def swarm(self, plan: SwarmPlan) -> SwarmResult:
         """Run the plan's agents to their end, with the run's failures and its progress line."""
         o, la = self.options, self.launcher
+        if o.workers:
+            plan = self._serve_workers(plan)
         self.plan = plan
+        if plan.ids is not None and plan.swarm_ids is not None:
+            la.pace_split(plan.ids, plan.swarm_ids, plan.clock_owner, plan.follow_all)
         la.track_progress()
         self.injector = injector = FailureInjector(
             la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
@@ -329,7 +388,9 @@ class Run:
             swarm_ids=plan.swarm_ids,
             startup_timeout=plan.startup_timeout,
             run_timeout=plan.run_timeout,
+            report_ids=plan.report_ids,
             **plan.sync.spec(),
+            **({} if plan.start_timeout is None else {"start_timeout": plan.start_timeout}),
         )
         return result
 
@@ -385,6 +446,7 @@ class Run:
             mcap=str(self.mcap) if self.mcap else None,
             finals=finals,
             realtime_factor=la.pacer.realtime_factor(),
+            notes=list(la.pacer.notes),
             **robot_figures(self.mcap, plan.setup),
         )
 

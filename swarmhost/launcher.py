@@ -35,7 +35,7 @@ from agent.protocol.spec import NEIGHBOUR_TIMEOUT, AgentSpec
 from agent.sph.particle import Control, initial_state
 from swarmhost.helpers import Helpers
 from swarmhost.initial_neighbours import initial_neighbours
-from swarmhost.pacing import Pacer
+from swarmhost.pacing import Pacer, Share
 from swarmhost.recorder_process import RecorderProcess
 from swarmhost.router_host import RouterHost
 from swarmhost.supervisor import Supervisor, Swarm
@@ -151,6 +151,15 @@ class Launcher:
     def newest(self) -> dict[int, bytes]:
         return self.pacer.newest
 
+    def pace_split(self, ids, swarm_ids, owner: bool | None = None, follow_all: bool = False) -> None:
+        """This launcher starts `ids` of the run's `swarm_ids` (a split run, before track_progress): it follows only
+        its own agents' states and says its share's clock, or, as the `owner` of the run's clock (default: the
+        host holding the swarm's smallest id), puts ctl/clock from every host's (swarmhost/pacing.py)."""
+        own, everyone = sorted({int(i) for i in ids}), {int(i) for i in swarm_ids}
+        if own and set(own) < everyone:
+            owner = min(everyone) in own if owner is None else owner
+            self.pacer.split(Share(tuple(own), len(everyone), owner, follow_all))
+
     def track_progress(self) -> None:
         """Follow every state message and publish the pacing clock (idempotent)."""
         self.pacer.start()
@@ -236,6 +245,13 @@ class Launcher:
     def wait_alive(self, ids, timeout: float) -> None:
         self.supervisor.wait_alive(ids, timeout)
 
+    def use_secret(self, secret: str) -> None:
+        """The run's command key is `secret` (hex; before any agent or the coordinator starts): a run with
+        workers derives it from the users file (agent/protocol/plan.py command_key)."""
+        self.secret = secret
+        if self.commands:
+            self.supervisor.secret = secret
+
     def start(self) -> None:
         self.supervisor.start()
 
@@ -266,6 +282,35 @@ class Launcher:
         self.close()
 
 
+def startup_budget(everyone, startup_timeout: float | None = None) -> float:
+    """s the start barrier waits for the agents of `everyone` to come up (a 1000-agent swarm takes minutes on two
+    cores): `startup_timeout` or 60 + 0.5 s per agent."""
+    return startup_timeout or 60.0 + 0.5 * len(everyone)
+
+
+def agent_specs(
+    launcher: Launcher, setup, steps: int, chosen, everyone, per_agent=None, **spec_extra
+) -> list[AgentSpec]:
+    """The specs of `chosen` (ids of `setup`) in a swarm of `everyone`, as this launcher starts them (its
+    endpoint; a worker sets its own, swarmhost/workers.py)."""
+    index = {int(i): k for k, i in enumerate(setup.ids)}
+    near = initial_neighbours(everyone, [setup.states[index[i]][:2] for i in everyone], setup.params)
+    specs = []
+    for i in chosen:
+        k = index[i]
+        extra = {
+            **spec_extra,
+            "neighbours": near[i],
+            "robot": setup.robot.as_dict(),
+            # only an imperfect radio is written: a perfect one is the agent's default
+            **({} if setup.radio.is_perfect else {"radio": setup.radio.as_dict()}),
+            **({"obstacles": setup.obstacle_dicts()} if setup.obstacles else {}),
+            **(per_agent or {}).get(i, {}),
+        }
+        specs.append(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
+    return specs
+
+
 def run_swarm(
     setup,
     steps: int,
@@ -278,57 +323,55 @@ def run_swarm(
     ids=None,
     swarm_ids=None,
     per_agent: dict | None = None,
+    report_ids=None,
     **spec_extra,
 ) -> SwarmResult:
     """Run `setup` (agent.sph.setups.Setup) through one agent process per particle, lockstep, `steps` steps.
 
     With a `launcher` given, the caller owns it (and closes it); otherwise one is made and closed here.
     `ids` is the slice started on this host; `swarm_ids` the whole swarm, whose alive tokens the start
-    barrier waits for (other hosts start the rest), so nobody steps before every subscriber is known.
+    barrier waits for (other hosts start the rest), so nobody steps before every subscriber is known;
+    `report_ids`: other hosts' agents whose final reports this host's result holds too (a main host's
+    workers'; one that never comes, of a lost host, is left out).
     """
     own = launcher is None
     launcher = launcher or Launcher()
     result = None
     try:
         chosen = [int(i) for i in (setup.ids if ids is None else ids)]
-        index = {int(i): k for k, i in enumerate(setup.ids)}
         everyone = [int(i) for i in swarm_ids] if swarm_ids is not None else chosen
         launcher.check_ids(everyone)
-        startup_budget = startup_timeout or 60.0 + 0.5 * len(everyone)
+        budget = startup_budget(everyone, startup_timeout)
         # An agent waits for the start signal as long as the launcher waits for the swarm to come up (a
         # 1000-agent swarm takes minutes on two cores), not a fixed 120 s.
-        spec_extra.setdefault("start_timeout", max(120.0, startup_budget + 30.0))
+        spec_extra.setdefault("start_timeout", max(120.0, budget + 30.0))
         t0 = time.monotonic()
-        near = initial_neighbours(everyone, [setup.states[index[i]][:2] for i in everyone], setup.params)
-        for i in chosen:
-            k = index[i]
-            extra = {
-                **spec_extra,
-                "neighbours": near[i],
-                "robot": setup.robot.as_dict(),
-                # only an imperfect radio is written: a perfect one is the agent's default
-                **({} if setup.radio.is_perfect else {"radio": setup.radio.as_dict()}),
-                **({"obstacles": setup.obstacle_dicts()} if setup.obstacles else {}),
-                **(per_agent or {}).get(i, {}),
-            }
-            launcher.spawn(launcher.spec_for(i, setup.states[k], setup.controls[k], setup.params, steps, **extra))
+        for spec in agent_specs(launcher, setup, steps, chosen, everyone, per_agent, **spec_extra):
+            launcher.spawn(spec)
         launcher.track_progress()
-        launcher.wait_alive(everyone, startup_budget)
+        launcher.wait_alive(everyone, budget)
         startup = time.monotonic() - t0
         t1 = time.monotonic()
         launcher.start()
         if on_started is not None:
             on_started(launcher)
-        launcher.wait_finals(chosen, run_timeout or 60.0 + steps * (0.05 + 0.004 * len(chosen)), progress)
+        run_budget = run_timeout or 60.0 + steps * (0.05 + 0.004 * len(chosen))
+        launcher.wait_finals(chosen, run_budget, progress)
+        # the owner of a split run's clock paces the other hosts' agents until their shares are done
+        launcher.pacer.wait_hosts(max(1.0, run_budget - (time.monotonic() - t1)))
+        others = [int(i) for i in report_ids or () if int(i) not in set(chosen)]
+        if others:
+            launcher.supervisor.wait_reports(others, 10.0)
         wall = time.monotonic() - t1
         # Late joiners (spawned during the run) finish at the same step as the rest: count them too.
         late = [i for i in list(launcher.swarm.procs) if i not in set(chosen) and i not in set(everyone)]
         if late:
             launcher.wait_finals(late, 30.0 + 0.1 * steps)
         with launcher.swarm.changed:
-            finals = {i: launcher.swarm.finals[i] for i in chosen + late if i in launcher.swarm.finals}
+            kept = chosen + others + late
+            finals = {i: launcher.swarm.finals[i] for i in kept if i in launcher.swarm.finals}
             events = list(launcher.swarm.events)
-        result = SwarmResult(chosen, finals, events, {}, wall, startup, steps)
+        result = SwarmResult(chosen + others, finals, events, {}, wall, startup, steps)
         return result
     finally:
         if own:

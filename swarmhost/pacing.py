@@ -4,12 +4,20 @@ A passive observer of every state message (like the recorder): the step each age
 was first seen, the newest state record of each agent (for watchers such as coordinator/control/settle.py).
 From that, a thread publishes the pacing clock (the slowest live agent's step), relays lost agents on
 ctl/gone and repeats ctl/end (docs/protocol.md), as agent/protocol/ctl.py records.
+
+In a split run (`Pacer.split`, under per-process rights) a launcher follows only its own share's states (one
+subscriber per own agent's id key: no state of another host crosses a router-to-router link for it) and says
+its share's clock on `pace/<id>` (agent/protocol/pace.py); the host that owns the run's clock puts `ctl/clock`
+= the minimum over every host's share clock, and stops waiting for a host whose share clock went silent for
+PACE_SILENCE s (named once on stderr and in `notes`).
 """
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import zenoh
@@ -17,6 +25,7 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.ctl import Clock, End, Gone, ctl_message
 from agent.protocol.errors import SwarmTimeout
+from agent.protocol.pace import Pace, decode_pace, pace_expr, pace_key
 from agent.protocol.wire import peek_id_step
 
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
@@ -26,6 +35,19 @@ CLOCK_REPEAT = 1.0
 CLOCK_LEAD = 3  # steps an agent may run past the clock (agent/native/src/agent.rs CLOCK_LEAD)
 GONE_GRACE = 0.25  # s a lost agent's report may come after its token's deletion (Pacer._clock)
 AHEAD = 1000  # steps: a state further ahead of the newest step seen is not believed (untrusted input)
+PACE_SILENCE = 5.0  # s: a host whose share clock is silent this long (it repeats every CLOCK_REPEAT) is lost
+
+
+@dataclass(frozen=True)
+class Share:
+    """This host's part of a split run: `own` its agents' ids, `swarm` how many agents the whole run holds,
+    `owner` this host puts ctl/clock (the others say their share clock), `follow_all` it still follows every
+    state (the main host of an imitation: its settle watch reads every agent's newest state)."""
+
+    own: tuple[int, ...]
+    swarm: int
+    owner: bool
+    follow_all: bool = False
 
 
 class Pacer:
@@ -45,8 +67,21 @@ class Pacer:
         self.started_at: float | None = None  # when the agents were told to start (mark_start)
         self.dt: float | None = None  # simulated seconds per step (mark_start)
         self.realtime = False  # pace_realtime: simulated time held to the wall clock
-        self._states = None
+        self._states: list[zenoh.Subscriber] | None = None  # the state subscribers, then the share clocks'
         self._stop = threading.Event()
+        self.share: Share | None = None  # a split run's pacing (split())
+        self.hosts: dict[int, list] = {}  # owner: first id -> [agents, step, done, heard at, dropped]
+        self.notes: list[str] = []  # hosts whose share clock stopped (owner), said once each
+        self._first_own: float | None = None  # when an own agent's step was first seen
+        self._uncovered_said = False
+        self._own_seen = False  # non-owner: one of its agents' tokens was seen (so none left means done)
+
+    def split(self, share: Share) -> None:
+        """Pace as one host of a split run (before start). Without per-process rights the states are on the
+        cell keys only, so nothing can be followed by id: every launcher then follows every state and puts
+        ctl/clock, as in one host's run."""
+        if self.id_keys and self._states is None and set(share.own) and len(share.own) < share.swarm:
+            self.share = share
 
     def start(self) -> None:
         """Start following and pacing (idempotent)."""
@@ -55,16 +90,32 @@ class Pacer:
         # Queued in zenoh (a ring: a slow launcher loses old samples, never blocks the router it hosts) and
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
-        self._states = states = self.session.declare_subscriber(
-            keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
-        )
-        threading.Thread(target=self._clock, args=(states,), daemon=True).start()
+        sh = self.share
+        if sh is None or sh.follow_all:
+            self._states = states = [
+                self.session.declare_subscriber(
+                    keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
+                )
+            ]
+        else:  # only this host's agents: a subscriber on each one's id key
+            self._states = states = [
+                self.session.declare_subscriber(keys.state_key(self.run, i), zenoh.handlers.RingChannel(1 << 10))
+                for i in sh.own
+            ]
+        paces = []
+        if sh is not None and sh.owner:
+            paces = [self.session.declare_subscriber(pace_expr(self.run), zenoh.handlers.RingChannel(1 << 12))]
+        threading.Thread(target=self._clock, args=(states, paces), daemon=True).start()
+        self._states = states + paces
 
     def stop(self) -> None:
         self._stop.set()
-        if self._states is not None:
+        sh = self.share
+        if sh is not None and not sh.owner and self._states is not None:
+            self._say_pace(None, done=True)  # the owner stops waiting for this host at once
+        for sub in self._states or []:
             try:
-                self._states.undeclare()
+                sub.undeclare()
             except Exception:  # noqa: BLE001, S110  # undeclaring on a session that is closing may fail; nothing left to do
                 pass
 
@@ -107,7 +158,80 @@ class Pacer:
             self.step_times[step] = now
             self.max_step = max(self.max_step, step)
 
-    def _clock(self, states: zenoh.Subscriber[zenoh.Handler[zenoh.Sample]]) -> None:
+    def _say_pace(self, step: int | None, done: bool = False) -> bool:
+        """Put this host's share clock (non-owner); False when the session is closing."""
+        assert self.share is not None
+        own = self.share.own
+        try:
+            self.session.put(
+                pace_key(self.run, min(own)),
+                Pace(min(own), len(own), 0 if step is None else step, done).encode(),
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+        except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
+            return False
+        return True
+
+    def _on_pace(self, sample, now: float) -> None:
+        pace = decode_pace(str(sample.key_expr), sample.payload.to_bytes())
+        assert self.share is not None
+        if pace is None or pace.first in self.share.own or pace.agents > self.share.swarm:
+            return  # malformed, or claims this host's own share
+        host = self.hosts.setdefault(pace.first, [pace.agents, pace.step, pace.done, now, False])
+        host[:4] = [pace.agents, pace.step, pace.done or host[2], now]
+
+    def _owner_clock(self, own: int | None, now: float) -> int | None:
+        """The run's clock from this host's own clock and every other host's share clock: None while the hosts
+        heard do not yet cover the swarm (for at most PACE_SILENCE s after the first own step), then the
+        minimum over the hosts still pacing. A host silent for PACE_SILENCE s is dropped, named once."""
+        sh = self.share
+        assert sh is not None
+        steps = [] if own is None else [own]
+        covered = len(sh.own)
+        for first, host in self.hosts.items():
+            agents, step, done, heard, dropped = host
+            covered += agents
+            if done or dropped:
+                continue
+            if now - heard >= PACE_SILENCE:
+                host[4] = True
+                self._note(
+                    f"the share clock of the host of agent {first} ({agents} agents) stopped at step {step}: "
+                    f"silent for {PACE_SILENCE:.0f} s, the run is paced without it"
+                )
+                continue
+            steps.append(step)
+        if covered < sh.swarm and not sh.follow_all:
+            if self._first_own is None or now - self._first_own < PACE_SILENCE:
+                return None
+            if not self._uncovered_said:
+                self._uncovered_said = True
+                self._note(
+                    f"{sh.swarm - covered} of {sh.swarm} agents' hosts never said their share clock in "
+                    f"{PACE_SILENCE:.0f} s: the run is paced without them"
+                )
+        return min(steps) if steps else None
+
+    def _note(self, text: str) -> None:
+        self.notes.append(text)
+        print(f"fluidswarm: {text}", file=sys.stderr, flush=True)
+
+    def hosts_done(self) -> bool:
+        """Owner: every other host heard is done or dropped, and together they cover the swarm (or gave up)."""
+        sh = self.share
+        if sh is None or not sh.owner:
+            return True
+        covered = len(sh.own) + sum(h[0] for h in self.hosts.values())
+        return (covered >= sh.swarm or self._uncovered_said) and all(h[2] or h[4] for h in self.hosts.values())
+
+    def wait_hosts(self, timeout: float) -> None:
+        """Owner of a split run's clock: after its own agents finished, keep pacing until every other host's
+        share is done (or dropped as silent), at most `timeout` s: the others' agents step on this clock."""
+        deadline = time.monotonic() + timeout
+        while not self.hosts_done() and time.monotonic() < deadline and not self._stop.is_set():
+            time.sleep(0.05)
+
+    def _clock(self, states: list[zenoh.Subscriber], paces: list[zenoh.Subscriber]) -> None:
         """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
 
         Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
@@ -115,16 +239,22 @@ class Pacer:
         Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
         """
         last = said = None
-        said_at = 0.0
+        said_at, said_done = 0.0, False
+        sh = self.share
+        own = set(sh.own) if sh is not None else set()
         # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
         # ~30 steps/s (the compiled agents run faster than that).
         while not self._stop.wait(self.clock_period):
+            now = time.monotonic()
             try:
-                while (sample := states.try_recv()) is not None:
-                    self._on_state(sample)
+                for sub in states:
+                    while (sample := sub.try_recv()) is not None:
+                        self._on_state(sample)
+                for sub in paces:
+                    while (sample := sub.try_recv()) is not None:
+                        self._on_pace(sample, now)
             except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                 return
-            now = time.monotonic()
             with self.swarm.changed:
                 alive = set(self.swarm.alive)
                 # An agent that finished has its token's deletion delivered before its report (declarations
@@ -140,9 +270,21 @@ class Pacer:
                     self.session.put(*ctl_message(self.run, Gone(j)), congestion_control=zenoh.CongestionControl.BLOCK)
                 except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
-            steps = self._clocked_steps(alive, now, said)
+            steps = self._clocked_steps(alive if sh is None or sh.follow_all else alive & own, now, said)
             if steps:
                 last = min(steps)
+                if self._first_own is None:
+                    self._first_own = now
+            if sh is not None and not sh.owner:  # a host of a split run: its share's clock to the owner
+                self._own_seen = self._own_seen or bool(alive & own)
+                done = self._own_seen and not alive & own
+                if last is not None and (last != said or done != said_done or now - said_at >= CLOCK_REPEAT):
+                    said, said_at, said_done = last, now, done
+                    if not self._say_pace(last, done):
+                        return
+                continue
+            if sh is not None:  # the owner: the minimum over every host's share clock
+                last = self._owner_clock(last if steps or sh.follow_all else None, now)
             if self.realtime:
                 last = self._wall_step(now) if last is None else min(last, self._wall_step(now))
             # Said again every CLOCK_REPEAT s, and with congestion control Block: a clock tick dropped by a

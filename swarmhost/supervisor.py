@@ -195,6 +195,18 @@ class Supervisor:
                     finally:
                         self.swarm.changed.acquire()
 
+    def wait_reports(self, ids, timeout: float) -> list[int]:
+        """Until every agent in `ids` (another host's: no process here) has reported, at most `timeout` s; the
+        ids still without a report."""
+        deadline = time.monotonic() + timeout
+        with self.swarm.changed:
+            while True:
+                missing = [i for i in ids if i not in self.swarm.finals]
+                left = deadline - time.monotonic()
+                if not missing or left <= 0:
+                    return missing
+                self.swarm.changed.wait(min(left, 0.2))
+
     def stop_all(self, bus: bool = True) -> dict[int, int | None]:
         """Stop every agent (stop message, then SIGTERM, then SIGKILL); their exit codes. `bus` False: the
         router is gone, so no stop message can reach them: SIGTERM at once."""

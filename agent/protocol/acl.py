@@ -24,7 +24,21 @@ _ANY_RUN = f"{keys.PREFIX}/*"
 _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
 # batch: the routers' relays' batches of states for the recorder (agent/native/src/relay.rs), no client's to put
-_KINDS = ("state", "event", "final", "alive", "ctl", "command", "recorder", "coordinator", "relay", "batch")
+_KINDS = (
+    "state",
+    "event",
+    "final",
+    "alive",
+    "ctl",
+    "command",
+    "recorder",
+    "coordinator",
+    "relay",
+    "pace",
+    "plan",
+    "batch",
+)
+_LEAVES = ("command", "recorder", "coordinator", "plan")  # one key per run, no chunk after the kind
 
 
 def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
@@ -37,7 +51,7 @@ def _kinds_but(*mine: str) -> list[str]:
     for kind in _KINDS:
         if kind in mine:
             continue
-        out.append(f"{_ANY_RUN}/{kind}" if kind in ("command", "recorder", "coordinator") else f"{_ANY_RUN}/{kind}/**")
+        out.append(f"{_ANY_RUN}/{kind}" if kind in _LEAVES else f"{_ANY_RUN}/{kind}/**")
     return out
 
 
@@ -70,13 +84,17 @@ def acl_config(users: list[str]) -> dict:
         _deny("no-admin", ["put", "query", "liveliness_token"], _ADMIN),
         # agents
         _deny("agent-never", ["liveliness_query"], _EVERYTHING),
-        # a host router's relay requests (relay/<zid>: add an agent to relay) are the launchers' only
-        _deny("agent-query", ["query"], [f"{_ANY_RUN}/relay/**"]),
+        # a host router's relay requests (relay/<zid>: add an agent to relay) and the run's plan (it names the
+        # salt of the command key) are the launchers' only
+        _deny("agent-query", ["query"], [f"{_ANY_RUN}/relay/**", f"{_ANY_RUN}/plan"]),
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
-        # launcher (a client of its router): ctl only; the relay that puts on the cell keys is inside the
-        # routers (agent/native/src/relay.rs), so no state key at all, an agent's or a cell's
-        _deny("launcher-put", ["put"], _kinds_but("ctl")),
+        # launcher (a client of its router): ctl and its host's share clock (pace) only; the relay that puts on
+        # the cell keys is inside the routers (agent/native/src/relay.rs), so no state key at all, an agent's or
+        # a cell's; the main host of a run with workers serves its plan (a queryable on `plan`, the one reply)
+        _deny("launcher-never", ["delete"], _EVERYTHING),
+        _deny("launcher-serve", ["reply", "declare_queryable"], _kinds_but("plan") + _ADMIN),
+        _deny("launcher-put", ["put"], _kinds_but("ctl", "pace")),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator
         _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
@@ -93,7 +111,7 @@ def acl_config(users: list[str]) -> dict:
                 _deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"], [f"**/$*{keys.bit_letter(k, bit)}$*"])
             )
     role_rules = {
-        "launcher": ["never", "no-admin", "launcher-put", "launcher-token"],
+        "launcher": ["launcher-never", "launcher-serve", "no-admin", "launcher-put", "launcher-token"],
         "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
         "recorder": ["never", "no-admin", "recorder-never", "recorder-token"],
     }

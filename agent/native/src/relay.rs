@@ -197,21 +197,9 @@ pub fn host_relay_run<'a>(key: &'a str, zid: &str) -> Option<&'a str> {
     (tail.strip_prefix("relay/") == Some(zid) && keys::valid_run_name(run)).then_some(run)
 }
 
-/// The relay on `session`: one subscriber on every id key of the run, whose callback routes and puts each
-/// state on zenoh's receiving thread (no hand-over: the put is routed right there, as the router forwards
-/// any message), and gathers them into batches for the observers (StateBatch), sent on `batch/<zid>`.
+/// The cell keys a relay has declared, shared by its subscribers.
 #[cfg(feature = "net")]
-pub struct StateRelay {
-    _sub: zenoh::pubsub::Subscriber<()>,
-    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
-}
-
-#[cfg(feature = "net")]
-impl Drop for StateRelay {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed); // the batch timer's thread ends within BATCH_WAIT
-    }
-}
+type Cells = std::sync::Arc<Mutex<HashMap<(i64, i64), KeyExpr<'static>>>>;
 
 #[cfg(feature = "net")]
 fn put_batch(session: &Session, key: &KeyExpr<'static>, batch: Vec<u8>) {
@@ -223,61 +211,129 @@ fn put_batch(session: &Session, key: &KeyExpr<'static>, batch: Vec<u8>) {
         .wait();
 }
 
+/// A relay's batch for the observers and the thread that sends it on `batch/<zid>` every BATCH_WAIT; the
+/// thread ends within BATCH_WAIT of the Batcher's drop.
+#[cfg(feature = "net")]
+struct Batcher {
+    batch: std::sync::Arc<Mutex<StateBatch>>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+#[cfg(feature = "net")]
+impl Batcher {
+    fn start(session: &Session, run: &str) -> zenoh::Result<Batcher> {
+        let key = session.declare_keyexpr(keys::batch_key(run, &session.zid().to_string())).wait()?;
+        let batch: std::sync::Arc<Mutex<StateBatch>> = Default::default();
+        let stop: std::sync::Arc<std::sync::atomic::AtomicBool> = Default::default();
+        let (b, halt, out) = (batch.clone(), stop.clone(), session.clone());
+        std::thread::Builder::new().name("batch-timer".into()).spawn(move || {
+            while !halt.load(Ordering::Relaxed) {
+                std::thread::sleep(BATCH_WAIT / 2);
+                let due = b.lock().expect("batch lock").take_if_older(Instant::now(), BATCH_WAIT);
+                if let Some(due) = due {
+                    put_batch(&out, &key, due);
+                }
+            }
+        })?;
+        Ok(Batcher { batch, stop })
+    }
+}
+
+#[cfg(feature = "net")]
+impl Drop for Batcher {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// A subscriber on `expr` (id keys of `table`'s run) whose callback routes and puts each state on zenoh's
+/// receiving thread (no hand-over: the put is routed right there, as the router forwards any message), and
+/// appends it to `batch` for the observers (StateBatch).
+#[cfg(feature = "net")]
+fn relay_subscriber(
+    session: &Session,
+    table: std::sync::Arc<RelayTable>,
+    cells: Cells,
+    batch: std::sync::Arc<Mutex<StateBatch>>,
+    expr: String,
+) -> zenoh::Result<zenoh::pubsub::Subscriber<()>> {
+    let out = session.clone();
+    session
+        .declare_subscriber(expr)
+        .callback(move |sample: Sample| {
+            let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
+                return;
+            };
+            let key = {
+                let mut cells = cells.lock().expect("cells lock");
+                match cells.get(&c) {
+                    Some(k) => k.clone(),
+                    None => match out.declare_keyexpr(keys::cell_key(&table.run, c)).wait() {
+                        Ok(k) => cells.entry(c).or_insert(k).clone(),
+                        Err(_) => return, // the session is closing
+                    },
+                }
+            };
+            let payload = sample.payload().clone();
+            // usize::MAX: never full here; the Batcher's thread sends every batch, so that this thread, which
+            // every state of the run goes through, never waits on a batch's put (measured: sending full
+            // batches here cost the router 10-20 µs more per agent-step at N = 300)
+            batch.lock().expect("batch lock").push(&payload.to_bytes(), usize::MAX, Instant::now());
+            // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
+            // states: a neighbour's full queue delays a state, never drops it.
+            let _ = out
+                .put(key, payload)
+                .congestion_control(CongestionControl::Block)
+                .allowed_destination(Locality::Remote)
+                .wait();
+        })
+        .wait()
+}
+
+/// The relay of a launcher's embedded router on `session`: one subscriber on every id key of the run (one
+/// host: every agent of the run is this router's), and its batches for the observers.
+#[cfg(feature = "net")]
+pub struct StateRelay {
+    _sub: zenoh::pubsub::Subscriber<()>,
+    _batcher: Batcher,
+}
+
 #[cfg(feature = "net")]
 impl StateRelay {
     pub fn start(session: &Session, table: std::sync::Arc<RelayTable>) -> zenoh::Result<StateRelay> {
-        let cells: Mutex<HashMap<(i64, i64), KeyExpr<'static>>> = Mutex::default();
-        let out = session.clone();
         let expr = format!("{}/{}/state/*", keys::PREFIX, table.run);
-        let batch_key = session.declare_keyexpr(keys::batch_key(&table.run, &session.zid().to_string())).wait()?;
-        let batch: std::sync::Arc<Mutex<StateBatch>> = Default::default();
-        let stop: std::sync::Arc<std::sync::atomic::AtomicBool> = Default::default();
-        {
-            // The timer: a batch short of a whole step (agents lost, joining, or the steps of a run's end) goes
-            // out after BATCH_WAIT.
-            let (batch, stop, out, key) = (batch.clone(), stop.clone(), session.clone(), batch_key.clone());
-            std::thread::Builder::new().name("batch-timer".into()).spawn(move || {
-                while !stop.load(Ordering::Relaxed) {
-                    std::thread::sleep(BATCH_WAIT / 2);
-                    let due = batch.lock().expect("batch lock").take_if_older(Instant::now(), BATCH_WAIT);
-                    if let Some(b) = due {
-                        put_batch(&out, &key, b);
-                    }
-                }
-            })?;
+        let batcher = Batcher::start(session, &table.run)?;
+        let sub = relay_subscriber(session, table, Cells::default(), batcher.batch.clone(), expr)?;
+        Ok(StateRelay { _sub: sub, _batcher: batcher })
+    }
+}
+
+/// A host router's relay of one run: a subscriber on each added agent's own id key, not on the run's `state/*`:
+/// a router's subscription reaches the routers it is linked to, so a wildcard one pulled every state of every
+/// other host across the router-to-router links, only to drop it (not its agent; docs/multi-host.md).
+#[cfg(feature = "net")]
+struct HostRelay {
+    table: std::sync::Arc<RelayTable>,
+    cells: Cells,
+    batcher: Batcher,
+    subs: HashMap<u32, zenoh::pubsub::Subscriber<()>>,
+}
+
+#[cfg(feature = "net")]
+impl HostRelay {
+    /// Answer `line` (`answer`); after a successful `add <id> …` follow that agent's id key (once).
+    fn request(&mut self, session: &Session, line: &str) -> Result<String, String> {
+        let text = answer(&self.table, line);
+        if let (true, ["add", id, _]) = (text == "ok", line.split_whitespace().collect::<Vec<_>>().as_slice()) {
+            let id: u32 = id.parse().map_err(|_| "add: bad id".to_string())?;
+            if let std::collections::hash_map::Entry::Vacant(e) = self.subs.entry(id) {
+                let expr = keys::state_key(&self.table.run, id);
+                let (table, cells, batch) = (self.table.clone(), self.cells.clone(), self.batcher.batch.clone());
+                let sub = relay_subscriber(session, table, cells, batch, expr).map_err(|e| format!("relay: {e}"))?;
+                e.insert(sub);
+            }
         }
-        let observed = batch.clone();
-        let sub = session
-            .declare_subscriber(expr)
-            .callback(move |sample: Sample| {
-                let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
-                    return;
-                };
-                let key = {
-                    let mut cells = cells.lock().expect("cells lock");
-                    match cells.get(&c) {
-                        Some(k) => k.clone(),
-                        None => match out.declare_keyexpr(keys::cell_key(&table.run, c)).wait() {
-                            Ok(k) => cells.entry(c).or_insert(k).clone(),
-                            Err(_) => return, // the session is closing
-                        },
-                    }
-                };
-                // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
-                // states: a neighbour's full queue delays a state, never drops it.
-                let payload = sample.payload().clone();
-                // usize::MAX: never full here; the timer's thread sends every batch, so that this thread,
-                // which every state of the run goes through, never waits on a batch's put (measured: sending
-                // full batches here cost the router 10-20 µs more per agent-step at N = 300)
-                observed.lock().expect("batch lock").push(&payload.to_bytes(), usize::MAX, Instant::now());
-                let _ = out
-                    .put(key, payload)
-                    .congestion_control(CongestionControl::Block)
-                    .allowed_destination(Locality::Remote)
-                    .wait();
-            })
-            .wait()?;
-        Ok(StateRelay { _sub: sub, stop })
+        Ok(text)
     }
 }
 
@@ -291,7 +347,7 @@ pub struct HostRelays {
 #[cfg(feature = "net")]
 impl HostRelays {
     pub fn start(session: &Session) -> zenoh::Result<HostRelays> {
-        type Runs = HashMap<String, (std::sync::Arc<RelayTable>, StateRelay)>;
+        type Runs = HashMap<String, HostRelay>;
         let zid = session.zid().to_string();
         let runs: Mutex<Runs> = Mutex::default();
         let own = session.clone();
@@ -312,15 +368,20 @@ impl HostRelays {
                             Err(format!("run {run}: no agent of it is relayed here"))
                         } else {
                             if !runs.contains_key(run) {
-                                let table = std::sync::Arc::new(RelayTable::new(run));
-                                match StateRelay::start(&own, table.clone()) {
-                                    Ok(relay) => {
-                                        runs.insert(run.to_string(), (table, relay));
+                                match Batcher::start(&own, run) {
+                                    Ok(batcher) => {
+                                        let relay = HostRelay {
+                                            table: std::sync::Arc::new(RelayTable::new(run)),
+                                            cells: Cells::default(),
+                                            batcher,
+                                            subs: HashMap::new(),
+                                        };
+                                        runs.insert(run.to_string(), relay);
                                     }
-                                    Err(e) => return drop(query.reply_err(format!("relay: {e}")).wait()),
+                                    Err(e) => return drop(query.reply_err(format!("error relay: {e}")).wait()),
                                 }
                             }
-                            Ok(answer(&runs[run].0, &line))
+                            runs.get_mut(run).expect("inserted above").request(&own, &line)
                         }
                     }
                 };
