@@ -13,7 +13,10 @@ target=${CARGO_TARGET_DIR:-$PWD/agent/native/target}
 cargo build --release --locked --quiet --manifest-path agent/native/Cargo.toml --bins --examples
 export FLUIDSWARM_ROUTER_BIN=${FLUIDSWARM_ROUTER_BIN:-$target/release/fluidswarm-router}
 export PYTHONPATH=$PWD${PYTHONPATH:+:$PYTHONPATH}
-bare() { echo "$(date -u +%H:%M:%S) $*"; "$PY" scripts/bare_exchange.py "$@"; }
+bare() {
+  echo "$(date -u +%H:%M:%S) ${FLUIDSWARM_ACCESS:+FLUIDSWARM_ACCESS=$FLUIDSWARM_ACCESS }${BARE_RUNTIME:+BARE_RUNTIME=$BARE_RUNTIME }$*"
+  "$PY" scripts/bare_exchange.py "$@"
+}
 echo "# $(date -u +%Y-%m-%dT%H:%MZ) $(nproc) cores; git $(git rev-parse --short HEAD); $(uptime)"
 
 echo "## primitives"
