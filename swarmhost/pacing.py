@@ -75,6 +75,8 @@ class Pacer:
         self._first_own: float | None = None  # when an own agent's step was first seen
         self._uncovered_said = False
         self._own_seen = False  # non-owner: one of its agents' tokens was seen (so none left means done)
+        self._owner_heard: float | None = None  # non-owner: when the owner's ctl/clock was last heard
+        self._orphan_said = False
 
     def split(self, share: Share) -> None:
         """Pace as one host of a split run (before start). Without per-process rights the states are on the
@@ -102,11 +104,19 @@ class Pacer:
                 self.session.declare_subscriber(keys.state_key(self.run, i), zenoh.handlers.RingChannel(1 << 10))
                 for i in sh.own
             ]
-        paces = []
+        paces, clocks = [], []
         if sh is not None and sh.owner:
             paces = [self.session.declare_subscriber(pace_expr(self.run), zenoh.handlers.RingChannel(1 << 12))]
-        threading.Thread(target=self._clock, args=(states, paces), daemon=True).start()
-        self._states = states + paces
+        elif sh is not None:  # the owner's clock, to notice its silence (not this host's own puts of it)
+            clocks = [
+                self.session.declare_subscriber(
+                    keys.ctl_key(self.run, "clock"),
+                    zenoh.handlers.RingChannel(64),
+                    allowed_origin=zenoh.Locality.REMOTE,
+                )
+            ]
+        threading.Thread(target=self._clock, args=(states, paces, clocks), daemon=True).start()
+        self._states = states + paces + clocks
 
     def stop(self) -> None:
         self._stop.set()
@@ -231,15 +241,34 @@ class Pacer:
         while not self.hosts_done() and time.monotonic() < deadline and not self._stop.is_set():
             time.sleep(0.05)
 
-    def _clock(self, states: list[zenoh.Subscriber], paces: list[zenoh.Subscriber]) -> None:
+    def _owner_silent(self, now: float) -> bool:
+        """Non-owner of a split run: the owner's ctl/clock has not been heard for PACE_SILENCE s since this host's
+        agents stepped (its host or the link to it lost), so this host paces its own share as a one-host run
+        would; said once. Without it a share cut off beyond Zenoh's lease stood still for good after the
+        partition healed (its agents at their lead, the owner finished and gone)."""
+        heard = self._owner_heard if self._owner_heard is not None else self._first_own
+        if heard is None or now - heard < PACE_SILENCE:
+            return False
+        if not self._orphan_said:
+            self._orphan_said = True
+            self._note(
+                f"the run's clock was silent for {PACE_SILENCE:.0f} s (the host that owns it, or the link to it, "
+                "lost): this host paces its own share"
+            )
+        return True
+
+    def _clock(
+        self, states: list[zenoh.Subscriber], paces: list[zenoh.Subscriber], clocks: list[zenoh.Subscriber]
+    ) -> None:
         """Publish the slowest live agent's step on ctl/clock every `clock_period` s when it moved.
 
         Agents that are not connected to anyone (an isolated particle) would otherwise race ahead of the
         swarm and meet it again at a different step; with the clock they stay within CLOCK_LEAD steps.
         Agents silent for longer than the neighbour timeout (frozen) or gone do not hold the clock back.
         """
-        last = said = None
-        said_at, said_done = 0.0, False
+        last = said = paced = None
+        said_at, paced_at, paced_done = 0.0, 0.0, False
+        moved_at = time.monotonic()  # when the clock (or this host's share clock) last changed
         sh = self.share
         own = set(sh.own) if sh is not None else set()
         # 50 Hz, and only when it moves: with a lead of CLOCK_LEAD steps, a 10 Hz clock capped every swarm at
@@ -253,6 +282,9 @@ class Pacer:
                 for sub in paces:
                     while (sample := sub.try_recv()) is not None:
                         self._on_pace(sample, now)
+                for sub in clocks:
+                    while sub.try_recv() is not None:
+                        self._owner_heard = now
             except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                 return
             with self.swarm.changed:
@@ -270,7 +302,9 @@ class Pacer:
                     self.session.put(*ctl_message(self.run, Gone(j)), congestion_control=zenoh.CongestionControl.BLOCK)
                 except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
-            steps = self._clocked_steps(alive if sh is None or sh.follow_all else alive & own, now, said)
+            # a non-owner's share clock bounds the run's clock from above: its agents wait at most its lead past it
+            clock = said if said is not None else paced
+            steps = self._clocked_steps(alive if sh is None or sh.follow_all else alive & own, now, clock, moved_at)
             if steps:
                 last = min(steps)
                 if self._first_own is None:
@@ -278,18 +312,21 @@ class Pacer:
             if sh is not None and not sh.owner:  # a host of a split run: its share's clock to the owner
                 self._own_seen = self._own_seen or bool(alive & own)
                 done = self._own_seen and not alive & own
-                if last is not None and (last != said or done != said_done or now - said_at >= CLOCK_REPEAT):
-                    said, said_at, said_done = last, now, done
+                if last is not None and (last != paced or done != paced_done or now - paced_at >= CLOCK_REPEAT):
+                    moved_at = now if last != paced else moved_at
+                    paced, paced_at, paced_done = last, now, done
                     if not self._say_pace(last, done):
                         return
-                continue
-            if sh is not None:  # the owner: the minimum over every host's share clock
+                if done or not self._owner_silent(now):
+                    continue
+            elif sh is not None:  # the owner: the minimum over every host's share clock
                 last = self._owner_clock(last if steps or sh.follow_all else None, now)
             if self.realtime:
                 last = self._wall_step(now) if last is None else min(last, self._wall_step(now))
             # Said again every CLOCK_REPEAT s, and with congestion control Block: a clock tick dropped by a
             # congested link held 555 of 1000 agents at their lead for good (nobody moved, so no new tick).
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
+                moved_at = now if last != said else moved_at
                 said, said_at = last, now
                 try:
                     self.session.put(
@@ -300,17 +337,24 @@ class Pacer:
                 except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
 
-    def _clocked_steps(self, alive: set[int], now: float, said: int | None) -> list[int]:
+    def _clocked_steps(self, alive: set[int], now: float, said: int | None, moved_at: float) -> list[int]:
         """The steps of the agents that hold the clock back: alive, heard within the agent timeout, and not
         resumed behind the swarm. A frozen agent that resumes is heard again at the step it froze at while it
         rejoins (docs/protocol.md); counted at once, it pulled the clock back to that step and held the whole
         swarm there (measured: a 2.2 s stall of 30 agents when one resumed 45 steps behind, for a 1.5 s
-        timeout). So an agent that went silent counts again only once it has reached the clock's step."""
+        timeout). So an agent that went silent counts again only once it has reached the clock's step.
+
+        Silence is an agent's own only while the clock lets it step: one at the clock's lead (`said` +
+        CLOCK_LEAD) waits for the clock, and one below it is timed from the later of its newest step and the
+        clock's last move (`moved_at`). Timed from its newest step alone, a split run's owner whose clock
+        another host held (a lost host, until PACE_SILENCE dropped it) held out all its own agents, and with
+        no step left to pace by, the clock never moved again (CI: 20 agents still running after 255 s)."""
         steps = []
         for j, (s, t) in list(self.agent_steps.items()):
             if j not in alive:
                 continue
-            if now - t >= self.agent_timeout:
+            waits_for_clock = said is not None and s >= said + CLOCK_LEAD
+            if not waits_for_clock and now - max(t, moved_at) >= self.agent_timeout:
                 self.held_out.add(j)
                 continue
             if j in self.held_out:

@@ -247,7 +247,9 @@ def test_a_partition_beyond_the_lease_loses_that_hosts_agents_and_the_rest_finis
     # every agent of host B is declared lost on host A while the link is cut, once Zenoh's lease (10 s) ran out
     assert set(died) == set(range(AGENTS // 2, AGENTS))
     # declared at the step the swarm stood at while it waited, not at the run's end (step 1500)
-    assert all(step_at_cut <= e.step < step_at_cut + 200 for e in died.values())
+    # (B's agents may stand up to CLOCK_LEAD (3) steps behind the top step seen at the cut; the cut itself lands
+    # a moment later, and B's last states reach A's recorder in its router's 10 ms batches: seen 2 below once)
+    assert all(step_at_cut - 4 <= e.step < step_at_cut + 200 for e in died.values())
     assert code_b == 0 and record(out_b)["finished"] == AGENTS // 2  # host B's slice finishes as well
     # The cut was felt (a side stood still longer than the 1 s neighbour timeout: its router's queue towards the
     # cut link fills and, under congestion control Block, holds its agents' puts), and no side stood still
