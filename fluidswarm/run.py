@@ -87,6 +87,7 @@ class SwarmPlan:
     report_ids: list[int] | None = None  # other hosts' agents whose reports the record holds (workers')
     clock_owner: bool | None = None  # split run: this host puts ctl/clock (None: the host of the smallest id)
     follow_all: bool = False  # split run: this host still follows every state (a settle watch reads them)
+    other_shares: tuple[tuple[int, ...], ...] = ()  # split run: the other hosts' ids, where known (workers')
 
 
 @dataclass
@@ -158,6 +159,8 @@ class RunRecord:
     subject: str = ""  # imitate --camera: "hand" | "person" (and how it was chosen)
     gestures: list[dict] = field(default_factory=list)  # imitate --camera: each command {seq, gesture, t, why}
     notes: list[str] = field(default_factory=list)  # what was not found, a swarm that fell behind real time
+    # hosts of a split run lost on the way (their share clock went silent): {first, agents, step, ids}
+    lost_hosts: list[dict] = field(default_factory=list)
     passed: bool = True
     why: list[str] = field(default_factory=list)
     finals: dict[int, FinalReport] = field(default_factory=dict, repr=False)
@@ -302,6 +305,7 @@ class Run:
             report_ids=everyone,
             clock_owner=True,
             follow_all=True,
+            other_shares=tuple(tuple(ids) for ids in shares[1:]),
         )
 
     # what a kind uses while it drives
@@ -361,7 +365,7 @@ class Run:
             plan = self._serve_workers(plan)
         self.plan = plan
         if plan.ids is not None and plan.swarm_ids is not None:
-            la.pace_split(plan.ids, plan.swarm_ids, plan.clock_owner, plan.follow_all)
+            la.pace_split(plan.ids, plan.swarm_ids, plan.clock_owner, plan.follow_all, plan.other_shares)
         la.track_progress()
         self.injector = injector = FailureInjector(
             la, o.failures, plan.setup.ids, o.seed, coordinator=self.coordinator, spawn_late=self._spawn_late
@@ -447,6 +451,7 @@ class Run:
             finals=finals,
             realtime_factor=la.pacer.realtime_factor(),
             notes=list(la.pacer.notes),
+            lost_hosts=[dict(h) for h in la.pacer.lost_hosts],
             **robot_figures(self.mcap, plan.setup),
         )
 

@@ -17,11 +17,15 @@ started is stopped when the launcher closes (also on an exception or SIGINT/SIGT
 
 from __future__ import annotations
 
+import json
 import secrets
+import shutil
+import tempfile
 import time
 import uuid
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -115,6 +119,10 @@ class Launcher:
         self.access, self.session = self.router.access, self.router.session
         self.swarm = Swarm(self.run, self.endpoint, self.session)
         self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
+        self.pacer.on_host_lost = self._log_host_lost
+        # What this launcher learns that the MCAP should hold too (a lost host): events.jsonl here, which its
+        # recorder follows (--launcher-events, recording/coordinator_events.py); made with the recorder.
+        self._events: Path | None = None
         self.helpers = Helpers(step=lambda: self.pacer.max_step)
         if self.router.process is not None:
             proc = self.router.process.proc
@@ -151,14 +159,22 @@ class Launcher:
     def newest(self) -> dict[int, bytes]:
         return self.pacer.newest
 
-    def pace_split(self, ids, swarm_ids, owner: bool | None = None, follow_all: bool = False) -> None:
+    def pace_split(self, ids, swarm_ids, owner: bool | None = None, follow_all: bool = False, others=()) -> None:
         """This launcher starts `ids` of the run's `swarm_ids` (a split run, before track_progress): it follows only
         its own agents' states and says its share's clock, or, as the `owner` of the run's clock (default: the
-        host holding the swarm's smallest id), puts ctl/clock from every host's (swarmhost/pacing.py)."""
+        host holding the swarm's smallest id), puts ctl/clock from every host's (swarmhost/pacing.py); `others`:
+        the other hosts' ids where known (a main host's workers'), so a lost host's agents are named."""
         own, everyone = sorted({int(i) for i in ids}), {int(i) for i in swarm_ids}
         if own and set(own) < everyone:
             owner = min(everyone) in own if owner is None else owner
-            self.pacer.split(Share(tuple(own), len(everyone), owner, follow_all))
+            shares = tuple(tuple(int(i) for i in share) for share in others)
+            self.pacer.split(Share(tuple(own), len(everyone), owner, follow_all, shares))
+
+    def _log_host_lost(self, lost: dict, text: str) -> None:
+        """The pacer dropped a silent host: into the MCAP too (a `host_lost` warning of name `launcher`)."""
+        if self._events is not None:
+            with open(self._events / "events.jsonl", "a") as f:
+                f.write(json.dumps({"event": "host_lost", "what": text, **lost}) + "\n")
 
     def track_progress(self) -> None:
         """Follow every state message and publish the pacing clock (idempotent)."""
@@ -182,7 +198,11 @@ class Launcher:
         live: str = "",
         coordinator_events: str = "",
     ):
-        proc = self.recorder.start(path, metadata, dt, timeout, target, image, live, coordinator_events)
+        if self._events is None:
+            self._events = Path(tempfile.mkdtemp(prefix="fluidswarm-launcher-"))
+        proc = self.recorder.start(
+            path, metadata, dt, timeout, target, image, live, coordinator_events, launcher_events=str(self._events)
+        )
         self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
         return proc
 
@@ -273,6 +293,8 @@ class Launcher:
             self.relay.close()
         self.supervisor.undeclare()
         self.router.close()
+        if self._events is not None:
+            shutil.rmtree(self._events, ignore_errors=True)
         return codes
 
     def __enter__(self):

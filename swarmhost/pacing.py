@@ -17,6 +17,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,10 +46,20 @@ class Share:
     `owner` this host puts ctl/clock (the others say their share clock), `follow_all` it still follows every
     state (the main host of an imitation: its settle watch reads every agent's newest state)."""
 
+    def ids_of(self, first: int, agents: int) -> list[int] | None:
+        """The ids of the host whose share clock says `first` and `agents`: from `others`, or, when the run has
+        two hosts, the swarm's ids that are not this host's (a run's ids are 0..swarm-1); None if unknown."""
+        for ids in self.others:
+            if ids and min(ids) == first and len(ids) == agents:
+                return sorted(ids)
+        rest = sorted(set(range(self.swarm)) - set(self.own))
+        return rest if len(rest) == agents and rest and rest[0] == first else None
+
     own: tuple[int, ...]
     swarm: int
     owner: bool
     follow_all: bool = False
+    others: tuple[tuple[int, ...], ...] = ()  # the other hosts' ids, where this host knows them (a main host)
 
 
 class Pacer:
@@ -73,6 +84,9 @@ class Pacer:
         self.share: Share | None = None  # a split run's pacing (split())
         self.hosts: dict[int, list] = {}  # owner: first id -> [agents, step, done, heard at, dropped]
         self.notes: list[str] = []  # hosts whose share clock stopped (owner), said once each
+        # owner: each host dropped as silent ({first, agents, step, ids}), and who hears of it as it happens
+        self.lost_hosts: list[dict] = []
+        self.on_host_lost: Callable[[dict, str], None] | None = None
         self._first_own: float | None = None  # when an own agent's step was first seen
         self._uncovered_said = False
         self._own_seen = False  # non-owner: one of its agents' tokens was seen (so none left means done)
@@ -207,10 +221,7 @@ class Pacer:
                 continue
             if now - heard >= PACE_SILENCE:
                 host[4] = True
-                self._note(
-                    f"the share clock of the host of agent {first} ({agents} agents) stopped at step {step}: "
-                    f"silent for {PACE_SILENCE:.0f} s, the run is paced without it"
-                )
+                self._lose_host(first, agents, step)
                 continue
             steps.append(step)
         if covered < sh.swarm and not sh.follow_all:
@@ -223,6 +234,25 @@ class Pacer:
                     f"{PACE_SILENCE:.0f} s: the run is paced without them"
                 )
         return min(steps) if steps else None
+
+    def _lose_host(self, first: int, agents: int, step: int) -> None:
+        """A host whose share clock went silent: named once (stderr, `notes`, `lost_hosts`, `on_host_lost`)
+        with the agents lost with it, where this host knows them."""
+        assert self.share is not None
+        ids = self.share.ids_of(first, agents)
+        lost = {"first": first, "agents": agents, "step": step, "ids": ids}
+        named = f"agents {_ranges(ids)}" if ids else f"{agents} agents from agent {first}"
+        text = (
+            f"the host of {named} was lost: its share clock stopped at step {step}, silent for "
+            f"{PACE_SILENCE:.0f} s; the run is paced without it"
+        )
+        self.lost_hosts.append(lost)
+        self._note(text)
+        if self.on_host_lost is not None:
+            try:
+                self.on_host_lost(lost, text)
+            except OSError:  # the note is also in `notes`; a full disk loses only the MCAP's copy
+                pass
 
     def _note(self, text: str) -> None:
         self.notes.append(text)
@@ -404,3 +434,14 @@ class Pacer:
         with the clock so that no agent misses it."""
         self.end_step = int(step)
         self.session.put(*ctl_message(self.run, End(self.end_step)), congestion_control=zenoh.CongestionControl.BLOCK)
+
+
+def _ranges(ids: list[int]) -> str:
+    """`ids` as compact ranges: [3, 4, 5, 9] -> '3-5, 9'."""
+    out: list[str] = []
+    for i in sorted(ids):
+        if out and out[-1].rsplit("-", 1)[-1] == str(i - 1):
+            out[-1] = f"{out[-1].split('-')[0]}-{i}"
+        else:
+            out.append(str(i))
+    return ", ".join(out)

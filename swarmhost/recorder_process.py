@@ -36,11 +36,13 @@ class RecorderProcess:
         image: str = "",
         live: str = "",
         coordinator_events: str = "",
+        launcher_events: str = "",
     ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket;
-        `coordinator_events`: a camera coordinator's events folder, followed (recording/coordinator_events.py)."""
+        `coordinator_events`: a camera coordinator's events folder, `launcher_events` the launcher's, followed
+        (recording/coordinator_events.py)."""
         check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
@@ -71,6 +73,8 @@ class RecorderProcess:
             cmd += ["--live", live]
         if coordinator_events:
             cmd += ["--coordinator-events", coordinator_events]
+        if launcher_events:
+            cmd += ["--launcher-events", launcher_events]
         self.proc = subprocess.Popen(
             cmd,
             stdout=out,

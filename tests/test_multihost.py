@@ -250,6 +250,11 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
         e.agent for e in run.events if e.kind == "died" and e.agent is not None and e.agent >= 20 and e.step < steps
     }
     assert len(lost) >= 10
+    # the host is named with its agents: in the record and as the launcher's warning in the MCAP
+    [host] = fa["lost_hosts"]
+    assert host["ids"] == list(range(20, 40)) and host["agents"] == 20
+    said = [e for e in run.events if e.kind == "host_lost"]
+    assert len(said) == 1 and said[0].message.startswith("the host of agents 20-39 was lost"), said
 
 
 ROGUE = r"""

@@ -49,6 +49,9 @@ def _main(args: argparse.Namespace) -> int:
             print(f"recorded_{key}={value:.4f}")
         if run.fidelity_gesture is not None:  # the gesture whose target it scored (the last one written)
             print(f"recorded_fidelity_gesture={run.fidelity_gesture}")
+        for e in run.events:  # hosts of a split run its main host lost, with their agents (the launcher's events)
+            if e.kind == "host_lost":
+                print(f"lost_host t={e.t:.2f} s: {e.message}")
         return 0 if c.complete else 1
     from fluidswarm.recording.replay import replay  # matplotlib only when rendering
 

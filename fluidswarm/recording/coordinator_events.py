@@ -13,6 +13,10 @@ host the launcher starts it and the recorder on. The recorder follows that file 
   gesture's, and `gesture` names it.
 
 A note said before the recorder started (a video that begins without a hand) is written at t = 0.
+
+The launcher's events folder (`--launcher-events DIR`, swarmhost/launcher.py) is followed the same way: each
+`host_lost` event (the clock's owner dropped a host of a split run whose share clock went silent) becomes a
+`foxglove.Log` warning of name `launcher`, kind `host_lost`, naming the agents lost with that host.
 """
 
 from __future__ import annotations
@@ -78,6 +82,9 @@ class CoordinatorEvents:
         kind = e.get("event")
         if kind == "missing":
             self.writer.write_event(t, "warning", "coordinator", str(e.get("what")), kind="missing")
+            self.notes += 1
+        elif kind == "host_lost":
+            self.writer.write_event(t, "warning", "launcher", str(e.get("what")), kind="host_lost")
             self.notes += 1
         elif kind == "command":
             seq = e.get("seq")

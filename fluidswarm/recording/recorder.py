@@ -56,15 +56,14 @@ def obstacles_of(metadata: dict) -> tuple[Obstacle, ...]:
         return ()
 
 
-def record(
-    recorder: Recorder, stop: threading.Event, poll: float = 0.2, follow: CoordinatorEvents | None = None
-) -> None:
+def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2, follow: tuple = ()) -> None:
     """Take the run's messages until `stop` (agent/protocol/stopping.py) is set, within `poll` s; what is being
-    written then is written whole. `follow`: the camera coordinator's events, read between pumps."""
+    written then is written whole. `follow`: events folders (CoordinatorEvents: the camera coordinator's, the
+    launcher's), read between pumps."""
     while not stop.is_set():
         recorder.pump(poll)
-        if follow is not None:
-            follow.poll(recorder.t(recorder.next_step))
+        for folder in follow:
+            folder.poll(recorder.t(recorder.next_step))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -80,6 +79,11 @@ def main(argv: list[str] | None = None) -> int:
         "--coordinator-events",
         metavar="DIR",
         help="a camera coordinator's events folder: its notes as log events, each command's silhouette a target",
+    )
+    ap.add_argument(
+        "--launcher-events",
+        metavar="DIR",
+        help="the launcher's events folder: what it learns for the record (a lost host) as log events",
     )
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
     ap.add_argument(
@@ -132,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
             target[1] if target is not None else None,
             gesture if isinstance(gesture, str) else None,
         )
+    launcher = CoordinatorEvents(args.launcher_events, writer, None) if args.launcher_events else None
     robot, obstacles = robot_of(metadata), obstacles_of(metadata)
     if obstacles:
         writer.write_obstacles(0.0, obstacles)
@@ -165,12 +170,14 @@ def main(argv: list[str] | None = None) -> int:
             ),
         ]
         _token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
-        record(recorder, stop, follow=follow)
+        record(recorder, stop, follow=tuple(f for f in (follow, launcher) if f is not None))
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         recorder.finish()
         gesture = metadata.get("gesture")
+        if launcher is not None:
+            launcher.poll(recorder.t(recorder.next_step))
         if follow is not None:
             follow.poll(recorder.t(recorder.next_step))  # what came since the last pump
             target, gesture = follow.target or target, follow.gesture
