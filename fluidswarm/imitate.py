@@ -273,6 +273,7 @@ def imitate(
     workers: int = 0,
     auth_file: str = "",
     workers_timeout: float = 120.0,
+    realtime: bool = False,
 ) -> RunRecord:
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes; with `workers`
     (and `connect`, `run`, the users file) this host runs region 1 of 1 + workers and `fluidswarm worker`s on
@@ -292,6 +293,7 @@ def imitate(
         auth_file=auth_file,
         workers=workers,
         workers_timeout=workers_timeout,
+        realtime=realtime,
     )
     with Run(kind, options) as this:
         kind.drive(this)

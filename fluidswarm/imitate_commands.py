@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 from agent.protocol.errors import UserError
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
+from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 from fluidswarm.worker_command import add_workers_arguments, workers_options
@@ -52,6 +53,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_imitate)
 
@@ -113,6 +115,7 @@ def _imitate(args) -> int:
             live=live,
             robot=robot,
             radio=radio,
+            realtime=args.realtime,
             **hosts,
         )
     if args.json:

@@ -12,6 +12,7 @@ from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from agent.sph.robot import POINT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
+from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.scenario import (
@@ -67,6 +68,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
@@ -74,6 +76,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_demo)
 
@@ -160,8 +163,8 @@ def kind_for(sc: Scenario, agents: int):
     )
 
 
-def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
-    """One run of the scenario with its failures, recorded in `out`."""
+def run_once(sc: Scenario, agents: int, out: Path, live: str = "", realtime: bool = False) -> RunRecord:
+    """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock."""
     from coordinator.handover import CoordinatorFailed
     from fluidswarm.run import Run, RunOptions
 
@@ -169,7 +172,15 @@ def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
     imitation = sc.experiment == "imitate"
     timeout = sc.neighbour_timeout or (NEIGHBOUR_TIMEOUT.imitation if imitation else NEIGHBOUR_TIMEOUT.default)
     options = RunOptions(
-        sc.name, out, timeout, failures=sc.failures, seed=sc.seed, live=live, commands=imitation, progress=True
+        sc.name,
+        out,
+        timeout,
+        failures=sc.failures,
+        seed=sc.seed,
+        live=live,
+        commands=imitation,
+        progress=True,
+        realtime=realtime,
     )
     try:
         with Run(kind, options) as run:
@@ -179,7 +190,9 @@ def run_once(sc: Scenario, agents: int, out: Path, live: str = "") -> RunRecord:
     return run.record
 
 
-def execute(sc: Scenario, agents: int | None, out: Path, compare: bool = False, live: str = "") -> RunRecord:
+def execute(
+    sc: Scenario, agents: int | None, out: Path, compare: bool = False, live: str = "", realtime: bool = False
+) -> RunRecord:
     """Run a scenario; with failures and a fidelity-ratio criterion (or `compare`), first the same scenario
     without failures (same seed, out/baseline) so the two fidelities are measured side by side."""
     from fluidswarm.scenario_verdict import judge
@@ -189,8 +202,8 @@ def execute(sc: Scenario, agents: int | None, out: Path, compare: bool = False, 
     if sc.failures and (compare or sc.passing.min_fidelity_ratio) and sc.experiment == "imitate":
         clean = replace(sc, failures=(), passing=PassCriteria())
         print(f"baseline: {sc.name} without failures (same seed) -> {out / 'baseline'}", file=sys.stderr)
-        baseline = run_once(clean, agents, out / "baseline")
-    record = run_once(sc, agents, out, live)  # the baseline is not streamed
+        baseline = run_once(clean, agents, out / "baseline", realtime=realtime)
+    record = run_once(sc, agents, out, live, realtime)  # the baseline is not streamed
     return judge(sc, record, out, baseline)
 
 
@@ -273,7 +286,8 @@ def _run(args) -> int:
         )
     sc = with_radio_options(sc, args)
     out = Path(args.out or f"out/{sc.name}")
-    return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live_from_args(args)))
+    live = live_from_args(args)
+    return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live, realtime=args.realtime))
 
 
 def with_radio_options(sc: Scenario, args) -> Scenario:
@@ -291,4 +305,4 @@ def _demo(args) -> int:
     if args.robot is not None:
         sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
     sc = with_radio_options(sc, args)
-    return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args)))
+    return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args), realtime=args.realtime))

@@ -10,6 +10,7 @@ from agent.protocol.spec import MODES, NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.obstacle_option import add_obstacles_argument, obstacles_option
 from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
+from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 
@@ -48,6 +49,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_obstacles_argument(p)
+    add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_launch)
 
@@ -192,7 +194,10 @@ def _auth_file(args) -> str:
 def _options(args, name: str, timeout: float):
     from fluidswarm.run import RunOptions
 
-    return RunOptions(name, None, timeout, run=args.run, connect=args.connect, auth_file=_auth_file(args))
+    realtime = getattr(args, "realtime", False)  # launch has --realtime; verify runs as fast as it can
+    return RunOptions(
+        name, None, timeout, run=args.run, connect=args.connect, auth_file=_auth_file(args), realtime=realtime
+    )
 
 
 def _check_block(kind) -> None:

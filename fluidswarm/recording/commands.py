@@ -49,6 +49,8 @@ def _main(args: argparse.Namespace) -> int:
             print(f"recorded_{key}={value:.4f}")
         if run.fidelity_gesture is not None:  # the gesture whose target it scored (the last one written)
             print(f"recorded_fidelity_gesture={run.fidelity_gesture}")
+        if "realtime_factor" in run.timing:  # simulated / wall seconds, as the recorder saw the steps come
+            print(f"recorded_realtime_factor={run.timing['realtime_factor']:.4f}")
         for e in run.events:  # hosts of a split run its main host lost, with their agents (the launcher's events)
             if e.kind == "host_lost":
                 print(f"lost_host t={e.t:.2f} s: {e.message}")

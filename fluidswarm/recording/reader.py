@@ -119,6 +119,7 @@ class Recording:
     schemas: dict[str, str] = field(default_factory=dict)  # topic -> schema name
     fidelity: dict = field(default_factory=dict)  # the recorder's score of the final formation (metadata `fidelity`)
     fidelity_gesture: str | None = None  # the gesture of the target it scored, when the recorder named it
+    timing: dict = field(default_factory=dict)  # how the run kept time (metadata `timing`: realtime_factor)
     salvage: Salvage | None = None  # the file had no footer (its writer died): what was read of it
 
     @property
@@ -339,20 +340,27 @@ def recorded_robots(path: str | os.PathLike) -> dict | None:
 def _read(path: Path, reader, want_images: bool) -> Recording:
     """The run from `reader`: mcap's reader of a finished file, or a Salvage (iter_metadata, iter_attachments,
     iter_messages yielding (schema, channel, message))."""
-    metadata, target_meta, scores, scored = {}, {}, {}, None
+    metadata, target_meta, scores, scored, timing = {}, {}, {}, None, {}
     for record in reader.iter_metadata():
         if record.name == "run":
             metadata = decode_metadata(record.metadata)
         elif record.name == "fidelity":
             scores = _scores(record.metadata)
             scored = record.metadata.get("fidelity_gesture")
+        elif record.name == "timing":
+            timing = _scores(record.metadata)
         elif record.name.startswith("target/"):
             target_meta[f"{record.name}.png"] = decode_metadata(record.metadata)
     ids = metadata.get("agent_ids", [])
     if not isinstance(ids, list) or not all(_id(a, "run metadata agent_ids") is not None for a in ids):
         raise ValueError(f"run metadata agent_ids is not a list of ids: {ids!r:.40}")
     run = Recording(
-        path=path, name=str(metadata.get("run", path.stem)), metadata=metadata, fidelity=scores, fidelity_gesture=scored
+        path=path,
+        name=str(metadata.get("run", path.stem)),
+        metadata=metadata,
+        fidelity=scores,
+        fidelity_gesture=scored,
+        timing=timing,
     )
     for att in reader.iter_attachments():
         meta = target_meta.get(att.name)

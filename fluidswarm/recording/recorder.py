@@ -186,6 +186,9 @@ def main(argv: list[str] | None = None) -> int:
             writer.write_fidelity(
                 fidelity(*target, recorder.last_positions), gesture=gesture if isinstance(gesture, str) else None
             )
+        factor, span = recorder.realtime_factor(), recorder.span
+        if factor is not None and span is not None:
+            writer.write_timing({"realtime_factor": factor, "steps_seen": span[2] - span[0] + 1})
         if recorder.contacts is not None:
             writer.write_robots(recorder.contacts.figures())
         writer.close()

@@ -67,6 +67,7 @@ class Recorder:
         self.last_written: tuple[int, np.ndarray] | None = None
         self.last_complete: tuple[int, np.ndarray] | None = None
         self.first_seen: dict[int, float] = {}
+        self.span: tuple[int, float, int, float] | None = None  # first and newest step seen, when (monotonic s)
         self.dead_at: dict[int, int] = {}  # agent -> first step without its state (event not yet written)
         self.gone_at: dict[int, float] = {}  # agent -> when its token went (monotonic s), until its event is written
         self.leaving: dict[int, float] = {}  # agent -> when its token went, until BATCH_GRACE_SECONDS later
@@ -100,6 +101,14 @@ class Recorder:
 
     def t(self, step: int) -> float:
         return max(step, 0) * self.dt
+
+    def realtime_factor(self) -> float | None:
+        """Simulated seconds / wall seconds from the first step seen to the newest (as the launcher's pacer
+        measures it, from its own sightings): 1.0 keeps pace with the wall clock; None before two steps."""
+        if self.span is None or self.span[2] <= self.span[0] or self.span[3] <= self.span[1]:
+            return None
+        first, t0, last, t1 = self.span
+        return (last - first) * self.dt / (t1 - t0)
 
     def handle(self, item) -> None:
         kind, data = item
@@ -197,7 +206,11 @@ class Recorder:
                 step=step,
             )
         if step not in self.pending:
-            self.first_seen[step] = time.monotonic()
+            self.first_seen[step] = seen = time.monotonic()
+            if self.span is None:
+                self.span = (step, seen, step, seen)
+            elif step > self.span[2]:
+                self.span = (*self.span[:2], step, seen)
         self.pending.setdefault(step, {})[j] = (cls, values)
         self.newest = max(self.newest, step)
         self.last_step[j] = max(self.last_step.get(j, -1), step)

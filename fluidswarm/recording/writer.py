@@ -306,6 +306,11 @@ class RunWriter:
             values["fidelity_gesture"] = str(gesture)
         return self._submit(lambda: self._mcap.add_metadata("fidelity", encode_metadata(values)))
 
+    def write_timing(self, values: dict) -> bool:
+        """How the run kept time as the recorder saw it (`realtime_factor`: simulated seconds / wall seconds
+        between the first and the last step it saw, steps_seen) as metadata record `timing`."""
+        return self._submit(lambda: self._mcap.add_metadata("timing", encode_metadata(values)))
+
     def write_robots(self, figures: dict) -> bool:
         """What a robot user measures (fluidswarm/recording/contacts.py: robot, radius_m, collisions,
         min_separation_m; among obstacles also obstacles, obstacle_penetrations, min_obstacle_distance_m) as
