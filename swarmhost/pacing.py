@@ -37,7 +37,6 @@ CLOCK_LEAD = 3  # steps an agent may run past the clock (agent/native/src/agent.
 GONE_GRACE = 0.25  # s a lost agent's report may come after its token's deletion (Pacer._clock)
 AHEAD = 1000  # steps: a state further ahead of the newest step seen is not believed (untrusted input)
 PACE_SILENCE = 5.0  # s: a host whose share clock is silent this long (it repeats every CLOCK_REPEAT) is lost
-CLOCK_HISTORY = 4096  # clock changes kept (when each value came: _free_since); agents are within a few of the newest
 
 
 @dataclass(frozen=True)
@@ -92,7 +91,6 @@ class Pacer:
         self._own_seen = False  # non-owner: one of its agents' tokens was seen (so none left means done)
         self._owner_heard: float | None = None  # non-owner: when the owner's ctl/clock was last heard
         self._orphan_said = False
-        self._clock_moves: list[tuple[int, float]] = []  # (clock, when it became that), the newest last
 
     def split(self, share: Share) -> None:
         """Pace as one host of a split run (before start). Without per-process rights the states are on the
@@ -344,7 +342,6 @@ class Pacer:
                 self._own_seen = self._own_seen or bool(alive & own)
                 done = self._own_seen and not alive & own
                 if last is not None and (last != paced or done != paced_done or now - paced_at >= CLOCK_REPEAT):
-                    self._moved(last, paced, now)  # its share clock bounds the run's clock from above
                     paced, paced_at, paced_done = last, now, done
                     if not self._say_pace(last, done):
                         return
@@ -357,7 +354,6 @@ class Pacer:
             # Said again every CLOCK_REPEAT s, and with congestion control Block: a clock tick dropped by a
             # congested link held 555 of 1000 agents at their lead for good (nobody moved, so no new tick).
             if last is not None and (last != said or now - said_at >= CLOCK_REPEAT):
-                self._moved(last, said, now)
                 said, said_at = last, now
                 try:
                     self.session.put(
@@ -368,23 +364,6 @@ class Pacer:
                 except Exception:  # noqa: BLE001  # the session is closing (zenoh raises several types then)
                     return
 
-    def _moved(self, clock: int, before: int | None, now: float) -> None:
-        """The clock (a non-owner: its share clock) is now `clock`: kept while it changes (_free_since)."""
-        if clock != before:
-            self._clock_moves.append((clock, now))
-            if len(self._clock_moves) > CLOCK_HISTORY:
-                del self._clock_moves[: CLOCK_HISTORY // 2]
-
-    def _free_since(self, step: int) -> float | None:
-        """Since when the clock lets an agent at `step` step on (clock >= step - CLOCK_LEAD + 1, without a move
-        below that since); None while it does not (the agent waits for the clock, it is not silent)."""
-        need, since = step - CLOCK_LEAD + 1, None
-        for value, at in reversed(self._clock_moves):
-            if value < need:
-                break
-            since = at
-        return since
-
     def _clocked_steps(self, alive: set[int], now: float, said: int | None) -> list[int]:
         """The steps of the agents that hold the clock back: alive, heard within the agent timeout, and not
         resumed behind the swarm. A frozen agent that resumes is heard again at the step it froze at while it
@@ -392,19 +371,15 @@ class Pacer:
         swarm there (measured: a 2.2 s stall of 30 agents when one resumed 45 steps behind, for a 1.5 s
         timeout). So an agent that went silent counts again only once it has reached the clock's step.
 
-        Silence is an agent's own only while the clock lets it step: one at the clock's lead waits for the
-        clock, and one below it is timed from the later of its newest step and the moment the clock let it on
-        (_free_since: not from the clock's last move, which other agents' progress renews: two frozen agents
-        were then held out one after the other, not together). Timed from its newest step alone, a split
-        run's owner whose clock another host held (a lost host, until PACE_SILENCE dropped it) held out all its
-        own agents, and with no step left to pace by, the clock never moved again (CI: 20 agents still running
-        after 255 s)."""
+        When none counts (every one silent: a split run's owner whose clock a lost host held for PACE_SILENCE,
+        or a host pacing itself after its owner went silent, has all its agents waiting at the clock's lead),
+        the slowest alive agent's step paces: without it no clock came, nobody could step, and the run stood
+        still for good (CI: 20 agents still running after 255 s). Frozen agents stand still either way."""
         steps = []
         for j, (s, t) in list(self.agent_steps.items()):
             if j not in alive:
                 continue
-            free = self._free_since(s) if self._clock_moves else t  # before any clock: from its newest step
-            if free is not None and now - max(t, free) >= self.agent_timeout:
+            if now - t >= self.agent_timeout:
                 self.held_out.add(j)
                 continue
             if j in self.held_out:
@@ -412,6 +387,9 @@ class Pacer:
                     continue
                 self.held_out.discard(j)
             steps.append(s)
+        if not steps:
+            waiting = [s for j, (s, _t) in self.agent_steps.items() if j in alive]
+            return [min(waiting)] if waiting else []
         return steps
 
     def longest_stall(self) -> float:
