@@ -86,3 +86,22 @@ def wait_for_live_step(port: int, step: int, timeout: float = 60.0) -> int:
                 return seen
     finally:
         client.close()
+
+
+def wait_recorded_steps(mcap, steps: int, proc, timeout: float) -> None:
+    """Until the MCAP being written at `mcap` (a Path, or a callable returning it or None) holds `steps` steps
+    (the recorder flushes every 0.5 s; read while it is written); fails if `proc` (the run writing it) ends or
+    `timeout` s pass first."""
+    from fluidswarm.recording.reader import load_run
+
+    def recorded() -> bool:
+        path = mcap() if callable(mcap) else mcap
+        try:
+            return path is not None and path.exists() and len(load_run(path, images=False).frames) >= steps
+        except Exception:  # noqa: BLE001  # a file still being written: only its header yet
+            return False
+
+    deadline = time.monotonic() + timeout
+    while not recorded():
+        assert time.monotonic() < deadline and proc.poll() is None, f"the run never recorded {steps} steps"
+        time.sleep(0.5)

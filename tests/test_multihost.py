@@ -9,13 +9,13 @@ import os
 import select
 import subprocess
 import sys
-import time
 
 import pytest
 
 from agent.protocol.access import RunKey, write_users_file
 from fluidswarm.recording.reader import load_run
 from tests.netns import Hosts, NetnsUnavailable
+from tests.swarm_helpers import wait_recorded_steps
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 
@@ -225,16 +225,7 @@ def test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss(host
     # The cut comes once both hosts step together: 20 steps in host A's record (flushed every 0.5 s, read while
     # it is written). A fixed 9 s sleep raced the start-up on a loaded machine: router B was cut before its
     # agents were ready, so host A waited out its start-up timeout instead of losing them mid-run.
-    def stepped() -> bool:
-        try:
-            return mcap.exists() and len(load_run(mcap, images=False).frames) >= 20
-        except Exception:  # noqa: BLE001  # a file still being written: only its header yet
-            return False
-
-    deadline = time.monotonic() + 120
-    while not stepped():
-        assert time.monotonic() < deadline and pa.poll() is None, "host A never recorded 20 steps"
-        time.sleep(0.5)
+    wait_recorded_steps(mcap, 20, pa, 120)
     router_b = hosts.procs[1]
     router_b.kill()
     out_a, err_a = pa.communicate(timeout=300)

@@ -11,13 +11,13 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 from fluidswarm.recording.reader import load_run
 from tests.netns import Hosts, NetnsUnavailable
+from tests.swarm_helpers import wait_recorded_steps
 from tests.test_multihost import PORT, QUIC_PORT, make_certificates
 
 pytestmark = pytest.mark.swarm  # starts routers, agents and the CLI (tests/conftest.py)
@@ -128,17 +128,7 @@ def test_an_imitation_over_three_hosts_finishes_every_agent_then_survives_losing
     main, workers, out = _start(three, tmp_path, "cut")
     shares = _shares(workers)
 
-    def stepped() -> bool:
-        files = list(out.glob("*.mcap"))
-        try:
-            return bool(files) and len(load_run(files[0], images=False).frames) >= 40
-        except Exception:  # noqa: BLE001  # a file still being written: only its header yet
-            return False
-
-    deadline = time.monotonic() + 240
-    while not stepped():
-        assert time.monotonic() < deadline and main.poll() is None, "host A never recorded 40 steps"
-        time.sleep(0.5)
+    wait_recorded_steps(lambda: next(out.glob("*.mcap"), None), 40, main, 240)
     three.routers["c"].kill()
     out_m, err_m = main.communicate(timeout=400)
     out_b, err_b = workers["b"].communicate(timeout=120)
