@@ -24,6 +24,7 @@ from fluidswarm.scenario import (
     scenario_robot,
     scenarios_dir,
 )
+from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
     from fluidswarm.run import RunRecord
@@ -69,6 +70,7 @@ def register(sub) -> None:
     add_radio_arguments(p)
     add_live_argument(p)
     add_realtime_argument(p)
+    add_workers_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
@@ -163,8 +165,11 @@ def kind_for(sc: Scenario, agents: int):
     )
 
 
-def run_once(sc: Scenario, agents: int, out: Path, live: str = "", realtime: bool = False) -> RunRecord:
-    """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock."""
+def run_once(
+    sc: Scenario, agents: int, out: Path, live: str = "", realtime: bool = False, hosts: dict | None = None
+) -> RunRecord:
+    """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock;
+    `hosts`: with workers on other hosts (worker_command.workers_options: connect, run, workers, ...)."""
     from coordinator.handover import CoordinatorFailed
     from fluidswarm.run import Run, RunOptions
 
@@ -181,6 +186,7 @@ def run_once(sc: Scenario, agents: int, out: Path, live: str = "", realtime: boo
         commands=imitation,
         progress=True,
         realtime=realtime,
+        **(hosts or {}),
     )
     try:
         with Run(kind, options) as run:
@@ -191,7 +197,13 @@ def run_once(sc: Scenario, agents: int, out: Path, live: str = "", realtime: boo
 
 
 def execute(
-    sc: Scenario, agents: int | None, out: Path, compare: bool = False, live: str = "", realtime: bool = False
+    sc: Scenario,
+    agents: int | None,
+    out: Path,
+    compare: bool = False,
+    live: str = "",
+    realtime: bool = False,
+    hosts: dict | None = None,
 ) -> RunRecord:
     """Run a scenario; with failures and a fidelity-ratio criterion (or `compare`), first the same scenario
     without failures (same seed, out/baseline) so the two fidelities are measured side by side."""
@@ -203,7 +215,7 @@ def execute(
         clean = replace(sc, failures=(), passing=PassCriteria())
         print(f"baseline: {sc.name} without failures (same seed) -> {out / 'baseline'}", file=sys.stderr)
         baseline = run_once(clean, agents, out / "baseline", realtime=realtime)
-    record = run_once(sc, agents, out, live, realtime)  # the baseline is not streamed
+    record = run_once(sc, agents, out, live, realtime, hosts)  # the baseline is not streamed
     return judge(sc, record, out, baseline)
 
 
@@ -286,8 +298,16 @@ def _run(args) -> int:
         )
     sc = with_radio_options(sc, args)
     out = Path(args.out or f"out/{sc.name}")
-    live = live_from_args(args)
-    return _report(args, execute(sc, args.agents, out, compare=args.compare, live=live, realtime=args.realtime))
+    live, hosts = live_from_args(args), workers_options(args)
+    if hosts:
+        # Failures are injected by one launcher on its own agents, and the baseline would need the workers again.
+        if sc.experiment != "imitate":
+            raise UserError(f"--workers: {sc.path} is a physics experiment; an imitation scenario only")
+        if sc.failures or args.compare:
+            raise UserError(f"--workers: {sc.path} injects failures; a scenario without failures only")
+    return _report(
+        args, execute(sc, args.agents, out, compare=args.compare, live=live, realtime=args.realtime, hosts=hosts)
+    )
 
 
 def with_radio_options(sc: Scenario, args) -> Scenario:

@@ -109,3 +109,44 @@ def test_a_main_host_whose_workers_do_not_come_says_how_many_came_in_one_line(tm
         for r in reversed(routers):
             r.terminate()
             r.wait(10)
+
+
+def test_a_scenario_runs_with_a_worker_and_one_with_failures_is_refused(tmp_path):
+    users = _users(tmp_path, 60)
+    a, b, routers = _routers(users)
+    env = dict(os.environ, FLUIDSWARM_AUTH_FILE=str(users))
+    procs: list[subprocess.Popen] = []
+    try:
+        # failures are injected by one launcher on its own agents: refused before anything starts
+        refused = subprocess.run(
+            FS + ["run", "hand_failures_kill20", "--connect", a, "--run", "kill", "--workers", "1"],
+            env=env,
+            timeout=60,
+            **KW,
+        )
+        assert refused.returncode == 1
+        _one_error_line(refused.stderr, "--workers: ")
+        assert "injects failures" in refused.stderr
+        main = subprocess.Popen(
+            FS
+            + ["run", "demo_v_sign", "--out", str(tmp_path / "demo"), "--json"]
+            + ["--connect", a, "--run", "scene", "--workers", "1"],
+            env=env,
+            **KW,
+        )
+        procs.append(main)
+        worker = subprocess.Popen(FS + ["worker", "--connect", b, "--run", "scene"], env=env, **KW)
+        procs.append(worker)
+        out_w, err_w = worker.communicate(timeout=180)
+        out_m, err_m = main.communicate(timeout=180)
+        assert worker.returncode == 0, err_w
+        record = json.loads(out_m.strip().splitlines()[-1])
+        print(record["finished"], record["fidelity"], record["passed"], record["why"])
+        assert main.returncode == 0 and record["passed"], err_m[-2000:]  # the shipped scenario's own criteria
+        assert record["agents"] == 60 and record["finished"] == 60 and "finished=30" in out_w.split()
+    finally:
+        for p in procs:
+            stop_process(p, 15.0)
+        for r in reversed(routers):
+            r.terminate()
+            r.wait(10)
