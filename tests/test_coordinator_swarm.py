@@ -20,6 +20,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.command import CommandRejected, decode
+from agent.protocol.errors import SwarmTimeout
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
@@ -190,7 +191,7 @@ def test_late_joiner_gets_the_command_within_one_second():
             ],
             env=env,
         )
-        la.coordinator = coord
+        la.watch_coordinator(coord)  # a coordinator that dies is named at once, not a 90 s timeout
         la.track_progress()
 
         def received() -> list:
@@ -199,26 +200,38 @@ def test_late_joiner_gets_the_command_within_one_second():
 
         # The swarm runs until the joiner has said it got the command (or 30 s), then ends together: a fixed
         # run length raced the joiner's start-up (under load it joined after its own last step, finished at
-        # once and never heard a command).
+        # once and never heard a command). Whatever happens to the joiner, the run is ended: an error here
+        # left the swarm stepping to its 100000th step and the test said only "12 agents still running".
+        trouble: list[str] = []
+
         def late(l):
             def go():
-                l.wait_step(40, 60)
-                state = im.setup.states[0].copy()
-                home = im.command.classes[0].route[-1]  # where class 0 gathers: particles are there
-                state[X], state[Y] = home.x, home.y
-                spec = l.spec_for(100, state, im.setup.controls[0], im.setup.params, 100000, join=True)
-                l.spawn(spec)
-                wait_until(received, 30.0)
-                l.end_at(l.max_step + 10)
+                try:
+                    l.wait_step(40, 60)
+                    state = im.setup.states[0].copy()
+                    home = im.command.classes[0].route[-1]  # where class 0 gathers: particles are there
+                    state[X], state[Y] = home.x, home.y
+                    spec = l.spec_for(100, state, im.setup.controls[0], im.setup.params, 100000, join=True)
+                    l.spawn(spec)
+                    if not wait_until(received, 30.0):
+                        trouble.append(f"no command_received from the joiner in 30 s (swarm at {l.max_step})")
+                except Exception as e:  # noqa: BLE001  # said by the test below
+                    trouble.append(f"{type(e).__name__}: {e} (swarm at step {l.max_step})")
+                finally:
+                    l.end_at(l.max_step + 10)
 
             threading.Thread(target=go, daemon=True).start()
 
         try:
-            run_swarm(im.setup, 100000, launcher=la, on_started=late, run_timeout=90)
+            try:
+                run_swarm(im.setup, 100000, launcher=la, on_started=late, run_timeout=90)
+            except SwarmTimeout as e:
+                pytest.fail(f"{e} (steps seen up to {la.max_step}; the joiner: {trouble or 'no error'})")
             got = received()
         finally:
             coord.terminate()
             coord.wait(10)
+    assert not trouble, trouble
     assert got, "the late joiner never reported receiving the command"
     latency = got[0].seconds_since_session_open
     print(f"late joiner: command {latency * 1000:.0f} ms after its session opened")
