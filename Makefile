@@ -14,7 +14,7 @@ AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/
 # the agent crate's records (wire.rs, command.rs, ...), so a change there rebuilds it too ($(STAMP) below).
 EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
-.PHONY: demo test install clean bench agent fuzz netfault-tools lint fmt scenarios
+.PHONY: demo test install clean bench agent router-traffic fuzz netfault-tools lint fmt scenarios
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
@@ -31,6 +31,16 @@ $(AGENT_BIN) $(ROUTER_BIN) &: $(AGENT_SRC)
 
 agent: $(AGENT_BIN) $(ROUTER_BIN)
 
+# The router that counts the state messages crossing to other routers (`fluidswarm router --count-traffic`,
+# scripts/imitation_traffic.py): the same program with zenoh's statistics, which cost every message, so it is
+# a program of its own (agent/native/Cargo.toml, feature traffic); tests/test_router_traffic.py runs it.
+ROUTER_TRAFFIC_BIN := $(NATIVE)/target/release/fluidswarm-router-traffic
+$(ROUTER_TRAFFIC_BIN): $(AGENT_SRC)
+	$(CARGO) build --release --locked --features traffic --bin fluidswarm-router-traffic --manifest-path $(NATIVE)/Cargo.toml
+	touch $(ROUTER_TRAFFIC_BIN)
+
+router-traffic: $(ROUTER_TRAFFIC_BIN)
+
 install: $(STAMP) $(AGENT_BIN) $(ROUTER_BIN)
 
 demo: install
@@ -40,7 +50,7 @@ demo: install
 # the line), one at a time: they measure stalls and recovery times in wall seconds. Both always run: the swarm
 # tests run even when a unit test failed, and `make test` fails if either did. The swarm tests list their
 # slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
-test: install netfault-tools lint
+test: install router-traffic netfault-tools lint
 	$(CARGO) test --release --locked --manifest-path $(NATIVE)/Cargo.toml
 	$(BIN)/python -m pytest -q -n 2 -m "not swarm" tests; unit=$$?; \
 	$(BIN)/python -m pytest -q -m "swarm and not every_scenario" --durations=10 tests; swarm=$$?; \

@@ -28,7 +28,7 @@ from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEP
 from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
-from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from fluidswarm.run import SHARE_KINDS, Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
 from swarmhost.supervisor import die_with_parent
 
 PERCEIVE_SECONDS = 300.0  # s for the coordinator to perceive a file (a long clip on a loaded 2-core machine)
@@ -274,6 +274,7 @@ def imitate(
     auth_file: str = "",
     workers_timeout: float = 120.0,
     realtime: bool = False,
+    shares: str = SHARE_KINDS[0],
 ) -> RunRecord:
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes; with `workers`
     (and `connect`, `run`, the users file) this host runs region 1 of 1 + workers and `fluidswarm worker`s on
@@ -294,6 +295,7 @@ def imitate(
         workers=workers,
         workers_timeout=workers_timeout,
         realtime=realtime,
+        shares=shares,
     )
     with Run(kind, options) as this:
         kind.drive(this)

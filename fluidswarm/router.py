@@ -11,6 +11,8 @@ QUIC): only nodes holding a certificate signed by that CA open a link. `tls/` is
 
 from __future__ import annotations
 
+import sys
+
 from agent.protocol.access import AuthFileError, acl_config, read_users_file
 from agent.protocol.errors import UserError
 from agent.protocol.session import TlsFiles, router_config_dict
@@ -40,6 +42,12 @@ def register(sub) -> None:
     )
     p.add_argument("--tls-cert", help="PEM certificate of this router")
     p.add_argument("--tls-key", help="PEM private key of this router")
+    p.add_argument(
+        "--count-traffic",
+        action="store_true",
+        help="count the state messages this router sends to and receives from other routers (what crosses "
+        "between hosts) and print them when it stops: router_traffic sent=N received=N links=N",
+    )
     p.set_defaults(func=run)
 
 
@@ -103,7 +111,7 @@ def run(args) -> int:
     )
     stop = stop_on_signals()
     try:
-        router = RouterProcess(None, settings)
+        router = RouterProcess(None, settings, count_traffic=args.count_traffic)
     except RouterFailed as exc:
         why = str(exc).removeprefix("fluidswarm router: error: ")
         raise UserError(f"cannot start the router on {','.join(listen)}: {why}") from None
@@ -117,5 +125,17 @@ def run(args) -> int:
                     f"{describe_exit(router.proc.returncode)}" + (f": {why}" if why else "")
                 )
     finally:
+        if args.count_traffic and router.proc.poll() is None:
+            _say_traffic(router)
         router.close()
     return 0
+
+
+def _say_traffic(router: RouterProcess) -> None:
+    """The router's count of state messages over its links to other routers, one line on stdout."""
+    try:
+        t = router.traffic()
+    except RouterFailed as exc:
+        print(f"fluidswarm router: {exc}", file=sys.stderr, flush=True)
+        return
+    print(f"router_traffic sent={t['sent']} received={t['received']} links={t['links']}", flush=True)

@@ -48,6 +48,11 @@ if TYPE_CHECKING:
 REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not keep up (said once)
 
 
+# How a run with workers cuts its start layout between the hosts: compact regions (agent/sph/regions.py: a
+# host's agents are each other's neighbours), or ranges of ids (what `launch --ids` does; to compare the two)
+SHARE_KINDS = ("regions", "ids")
+
+
 @dataclass(frozen=True)
 class Sync:
     """How the agents keep time (docs/protocol.md): mode SyncMode.LOCKSTEP or .ASYNC (or its name); rate
@@ -114,6 +119,7 @@ class RunOptions:
     realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
     workers: int = 0  # with connect and run: the run's other hosts, `fluidswarm worker`s (docs/multi-host.md)
     workers_timeout: float = 120.0  # s the main host waits for its workers before it starts anything of its own
+    shares: str = SHARE_KINDS[0]  # how the start layout is cut between the hosts (SHARE_KINDS)
 
 
 @dataclass
@@ -288,7 +294,10 @@ class Run:
         everyone = [int(i) for i in setup.ids]
         if o.workers + 1 > len(everyone):
             raise UserError(f"--workers {o.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
-        shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(setup.states[:, :2], o.workers + 1)]
+        if o.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
+            shares = [[int(i) for i in part] for part in np.array_split(np.array(sorted(everyone)), o.workers + 1)]
+        else:
+            shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(setup.states[:, :2], o.workers + 1)]
         start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + o.workers_timeout
         extra = {**plan.sync.spec(), "start_timeout": start_timeout}
         specs = [agent_specs(la, setup, plan.steps, ids, everyone, plan.per_agent, **extra) for ids in shares[1:]]

@@ -11,6 +11,7 @@ import sys
 
 from agent.protocol.access import AUTH_FILE_ENV
 from agent.protocol.errors import UserError
+from fluidswarm.run import SHARE_KINDS
 
 WORKERS_TIMEOUT = 120.0  # s the main host waits for its workers (--workers-timeout)
 
@@ -32,6 +33,13 @@ def add_workers_arguments(p) -> None:
         default=WORKERS_TIMEOUT,
         metavar="S",
         help=f"s to wait for the workers before anything starts (default {WORKERS_TIMEOUT:.0f})",
+    )
+    p.add_argument(
+        "--shares",
+        choices=SHARE_KINDS,
+        default=None,
+        help="with --workers: how the start layout is cut between the hosts: compact regions (default; a host's "
+        "agents are each other's neighbours) or ranges of ids (to compare what crosses between hosts)",
     )
     _add_auth_file(p)
 
@@ -64,7 +72,7 @@ def _users_file(args) -> str:
 def workers_options(args) -> dict:
     """The imitation's multi-host options, checked before anything starts ({} for a run on this host)."""
     if not args.workers:
-        for flag in ("connect", "run", "auth_file"):
+        for flag in ("connect", "run", "auth_file", "shares"):
             if getattr(args, flag):
                 raise UserError(f"--{flag.replace('_', '-')} goes with --workers M (a run over several hosts)")
         return {}
@@ -80,6 +88,7 @@ def workers_options(args) -> dict:
         "workers": args.workers,
         "auth_file": _users_file(args),
         "workers_timeout": args.workers_timeout,
+        "shares": args.shares or SHARE_KINDS[0],
     }
 
 

@@ -25,6 +25,7 @@ ENV_OVERRIDE = "FLUIDSWARM_AGENT_BIN"
 ROUTER_ENV_OVERRIDE = "FLUIDSWARM_ROUTER_BIN"
 AGENT = "fluidswarm-agent"
 ROUTER = "fluidswarm-router"
+ROUTER_TRAFFIC = "fluidswarm-router-traffic"  # the router that counts what crosses to other routers
 
 
 class AgentNotBuilt(UserError, RuntimeError):
@@ -112,3 +113,17 @@ def router_executable() -> str:
             )
         return str(sibling)
     return _find(ROUTER, "router")
+
+
+def router_traffic_executable() -> str:
+    """The counting router (`fluidswarm router --count-traffic`): `fluidswarm-router-traffic` next to the router
+    binary. Not in the default build (zenoh's statistics cost every message; agent/native/Cargo.toml): one line
+    saying how to build it when it is not there."""
+    router = Path(router_executable())
+    sibling = router.with_name(ROUTER_TRAFFIC + (sysconfig.get_config_var("EXE") or ""))
+    if not _runnable(sibling):
+        raise AgentNotBuilt(
+            f"--count-traffic needs {sibling} (the router with zenoh's statistics), which is not built: "
+            "make router-traffic"
+        )
+    return str(sibling)

@@ -25,7 +25,7 @@ import threading
 from typing import IO
 
 from agent.protocol.errors import SwarmFailed
-from swarmhost.executable import router_executable
+from swarmhost.executable import router_executable, router_traffic_executable
 
 CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
 CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_main.rs)
@@ -50,7 +50,7 @@ class RouterProcess:
     `settings`: the router's Zenoh configuration as a nested dict (agent/protocol/session.py:
     router_config_dict). `zid`: the router's Zenoh id, once it has started."""
 
-    def __init__(self, run: str | None, settings: dict):
+    def __init__(self, run: str | None, settings: dict, count_traffic: bool = False):
         private = tempfile.mkdtemp(prefix="fluidswarm-router-")  # mode 0700
         errors = None
         try:
@@ -60,7 +60,8 @@ class RouterProcess:
                 json.dump(settings, f)
             errors = open(os.path.join(private, "stderr"), "w+")  # noqa: SIM115  # closed on failure below, else by close()
             self.proc = subprocess.Popen(
-                [router_executable(), run if run is not None else "--host"],
+                [router_traffic_executable() if count_traffic else router_executable()]
+                + [run if run is not None else "--host"],
                 env=dict(os.environ, **{CONFIG_ENV: path}),
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
@@ -146,6 +147,15 @@ class RouterProcess:
         if self._stdin.closed:
             return dict(self._last_rejected)
         return rejected_counts(self.ask("rejected"), "fluidswarm-router")
+
+    def traffic(self) -> dict[str, int]:
+        """State messages this router sent to and received from other routers, and how many routers
+        (`sent`, `received`, `links`); RouterFailed unless it was started with count_traffic (router_main.rs)."""
+        answer = self.ask("traffic")
+        words = answer.split()
+        if not words or words[0] != "traffic":
+            raise RouterFailed(f"fluidswarm-router: traffic: {answer.removeprefix('error ')}")
+        return {k: int(v) for k, v in (w.split("=", 1) for w in words[1:])}
 
     def close(self) -> None:
         """Close the router (its stdin); kill it if it has not ended after CLOSE_TIMEOUT s. Idempotent. The

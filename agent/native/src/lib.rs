@@ -22,6 +22,7 @@ pub mod session;
 pub mod shell;
 pub mod spec;
 pub mod sph;
+pub mod traffic;
 pub mod wire;
 
 /// Any panic ends the process at once (after the default message): a panicking zenoh callback thread would

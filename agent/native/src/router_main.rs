@@ -4,6 +4,8 @@
 //!     fluidswarm-router RUN     a launcher's embedded router: relays the agents of RUN its launcher adds
 //!     fluidswarm-router --host  a host's router (`fluidswarm router`, multi-host): relays, for any run, the
 //!                               agents each launcher of its host adds over Zenoh (relay.rs HostRelays)
+//!     fluidswarm-router-traffic RUN | --host   the same, counting the state messages to and from other routers
+//!                               (traffic.rs; built with the `traffic` feature: zenoh's statistics)
 //!
 //! Its Zenoh configuration (endpoints, the users file, the access-control rules, TLS) is a JSON file named by
 //! FLUIDSWARM_ROUTER_CONFIG, written privately by its starter: never on the command line. The starter talks to
@@ -13,6 +15,8 @@
 //!     (first line out)  ready zid=<zid>     the router listens; its Zenoh id
 //!     add <id> <h>      ok | error <why>    relay agent <id>'s states on cells of side <h> (before it starts)
 //!     rejected          rejected length=<n> version=<n> value=<n> id=<n> key=<n>
+//!     traffic           traffic sent=<n> received=<n> links=<n>   state messages to and from other routers
+//!                       (fluidswarm-router-traffic only; the other says `error ...`)
 //!
 //! The end of stdin (the starter closed it, or died) closes the router. Exit codes: 0 closed, 2 bad
 //! configuration or arguments (one line on stderr).
@@ -22,6 +26,7 @@ use std::sync::Arc;
 
 use fluidswarm_agent::keys;
 use fluidswarm_agent::relay::{self, HostRelays, RelayTable, StateRelay};
+use fluidswarm_agent::traffic;
 use zenoh::Wait;
 
 const CONFIG_ENV: &str = "FLUIDSWARM_ROUTER_CONFIG";
@@ -45,7 +50,18 @@ fn main() {
         _ => fail("usage: fluidswarm-router RUN | --host (a run name: 1-64 letters, digits, '-' or '_'), configuration in $FLUIDSWARM_ROUTER_CONFIG"),
     };
     let path = std::env::var(CONFIG_ENV).unwrap_or_else(|_| fail(&format!("{CONFIG_ENV} is not set")));
-    let config = zenoh::Config::from_file(&path).unwrap_or_else(|e| fail(&format!("{CONFIG_ENV} {path}: {e}")));
+    #[cfg_attr(not(feature = "traffic"), allow(unused_mut))]
+    let mut config = zenoh::Config::from_file(&path).unwrap_or_else(|e| fail(&format!("{CONFIG_ENV} {path}: {e}")));
+    // fluidswarm-router-traffic: zenoh counts the messages on the state keys per transport (its statistics),
+    // read back from the admin space, which the `traffic` request queries locally (traffic.rs). The admin space
+    // then also answers this router's clients: a measuring router's, not a production one's.
+    #[cfg(feature = "traffic")]
+    {
+        let filters = format!(r#"[{{"key": "{}"}}]"#, traffic::STATE_FILTER);
+        for (key, value) in [("stats/filters", filters.as_str()), ("adminspace/enabled", "true")] {
+            config.insert_json5(key, value).unwrap_or_else(|e| fail(&format!("counting traffic: {e}")));
+        }
+    }
     let session = zenoh::open(config).wait().unwrap_or_else(|e| fail(&format!("cannot open the router: {e}")));
     // One relay table for the embedded router's run; a host's router makes one per run on request.
     let table = run.as_deref().map(|run| Arc::new(RelayTable::new(run)));
@@ -64,6 +80,8 @@ fn main() {
     for line in std::io::stdin().lock().lines() {
         let Ok(line) = line else { break };
         let reply = match &table {
+            // the router's own counters, in either mode (not a run's: what crossed to other routers)
+            _ if line.trim() == "traffic" => traffic_line(&session),
             Some(table) => relay::answer(table, &line),
             None => "error a host's router takes its requests over Zenoh (fluidswarm/<run>/relay/<zid>)".to_string(),
         };
@@ -76,4 +94,14 @@ fn main() {
     unsafe { libc::alarm(5) };
     drop((relay, host));
     let _ = session.close().wait();
+}
+
+#[cfg(feature = "traffic")]
+fn traffic_line(session: &zenoh::Session) -> String {
+    traffic::query(session).map(|t| t.line()).unwrap_or_else(|e| format!("error {e}"))
+}
+
+#[cfg(not(feature = "traffic"))]
+fn traffic_line(_session: &zenoh::Session) -> String {
+    "error this router does not count: fluidswarm-router-traffic does (make router-traffic)".to_string()
 }
