@@ -27,7 +27,7 @@ from agent.protocol import keys
 from agent.protocol.ctl import Clock, End, Gone, ctl_message
 from agent.protocol.errors import SwarmTimeout
 from agent.protocol.pace import Pace, decode_pace, pace_expr, pace_key
-from agent.protocol.wire import peek_id_step
+from agent.protocol.wire import STATE_SIZE, peek_id_step
 
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
@@ -107,7 +107,7 @@ class Pacer:
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
         sh = self.share
-        if sh is None or sh.follow_all:
+        if sh is None:
             self._states = states = [
                 self.session.declare_subscriber(
                     keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
@@ -118,6 +118,13 @@ class Pacer:
                 self.session.declare_subscriber(keys.state_key(self.run, i), zenoh.handlers.RingChannel(1 << 10))
                 for i in sh.own
             ]
+        if sh is not None and sh.follow_all:
+            # The other hosts' states from their routers' batches (docs/protocol.md "State batches"), which
+            # cross to this host for its recorder anyway: a subscriber on every id key pulled each of their
+            # states over a router-to-router link once more, one message each (scripts/imitation_traffic.py).
+            states.append(
+                self.session.declare_subscriber(keys.batch_expr(self.run), zenoh.handlers.RingChannel(1 << 12))
+            )
         paces, clocks = [], []
         if sh is not None and sh.owner:
             paces = [self.session.declare_subscriber(pace_expr(self.run), zenoh.handlers.RingChannel(1 << 12))]
@@ -165,13 +172,23 @@ class Pacer:
         assert self.started_at is not None and self.dt is not None  # paced only after mark_start
         return max(0, int((now - self.started_at) / self.dt) - CLOCK_LEAD - 1)
 
-    def _on_state(self, sample) -> None:
-        data = sample.payload.to_bytes()
+    def _on_sample(self, sample) -> None:
+        """A state on its sender's key, or a router's batch of states (split run's main host)."""
+        data, key = sample.payload.to_bytes(), str(sample.key_expr)
+        if keys.is_batch_key(self.run, key):  # only routers may put there (docs/security.md); each record checked
+            if len(data) % STATE_SIZE == 0:
+                for at in range(0, len(data), STATE_SIZE):
+                    self._on_state(data[at : at + STATE_SIZE], None)
+            return
+        self._on_state(data, key)
+
+    def _on_state(self, data: bytes, key: str | None) -> None:
+        """One state record, from `key` (its sender's, checked) or from a router's batch (`key` None)."""
         peek = peek_id_step(data)
         if peek is None:
             return
         agent_id, step = peek
-        if not keys.state_key_vouches(str(sample.key_expr), agent_id):
+        if key is not None and not keys.state_key_vouches(key, agent_id):
             return  # under another agent's key or a wildcard key: a forgery (docs/security.md)
         now = time.monotonic()
         last = self.agent_steps.get(agent_id)
@@ -307,7 +324,7 @@ class Pacer:
             try:
                 for sub in states:
                     while (sample := sub.try_recv()) is not None:
-                        self._on_state(sample)
+                        self._on_sample(sample)
                 for sub in paces:
                     while (sample := sub.try_recv()) is not None:
                         self._on_pace(sample, now)
