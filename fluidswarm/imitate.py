@@ -199,6 +199,11 @@ class FileImitation:
             run.on_start(self.watch.start)
             run.on_stop(self.watch.stop)
         first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
+        layout = None
+        if o.workers and o.shares == "formation" and not sequence:  # a sequence's later gestures are not known yet
+            from fluidswarm.share_layout import formation_ahead
+
+            layout = formation_ahead(im.setup, im.command)
         run.swarm(
             SwarmPlan(
                 im.setup,
@@ -206,6 +211,7 @@ class FileImitation:
                 self.sync,
                 per_agent={i: {"drop_out": f} for i, f in (self.drop or {}).items()},
                 joiners_at=(first.x, first.y),
+                share_layout=layout,
             )
         )
 

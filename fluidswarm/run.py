@@ -48,9 +48,11 @@ if TYPE_CHECKING:
 REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not keep up (said once)
 
 
-# How a run with workers cuts its start layout between the hosts: compact regions (agent/sph/regions.py: a
-# host's agents are each other's neighbours), or ranges of ids (what `launch --ids` does; to compare the two)
-SHARE_KINDS = ("regions", "ids")
+# How a run with workers cuts its swarm between the hosts: compact regions (agent/sph/regions.py: a host's
+# agents are each other's neighbours) of the formation the swarm is going to (`formation`: the kind's
+# SwarmPlan.share_layout, fluidswarm/share_layout.py) or of its start layout (`start`), or ranges of ids (what
+# `launch --ids` does); the last two to compare (docs/multi-host.md)
+SHARE_KINDS = ("formation", "start", "ids")
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,9 @@ class SwarmPlan:
     clock_owner: bool | None = None  # split run: this host puts ctl/clock (None: the host of the smallest id)
     follow_all: bool = False  # split run: this host still follows every state (a settle watch reads them)
     other_shares: tuple[tuple[int, ...], ...] = ()  # split run: the other hosts' ids, where known (workers')
+    # where the swarm is going, (n, 2) in setup order: what a run with workers cuts into regions (`formation`
+    # shares); None: its start layout
+    share_layout: np.ndarray | None = None
 
 
 @dataclass
@@ -119,7 +124,7 @@ class RunOptions:
     realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
     workers: int = 0  # with connect and run: the run's other hosts, `fluidswarm worker`s (docs/multi-host.md)
     workers_timeout: float = 120.0  # s the main host waits for its workers before it starts anything of its own
-    shares: str = SHARE_KINDS[0]  # how the start layout is cut between the hosts (SHARE_KINDS)
+    shares: str = SHARE_KINDS[0]  # how the swarm is cut between the hosts (SHARE_KINDS)
 
 
 @dataclass
@@ -297,7 +302,9 @@ class Run:
         if o.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
             shares = [[int(i) for i in part] for part in np.array_split(np.array(sorted(everyone)), o.workers + 1)]
         else:
-            shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(setup.states[:, :2], o.workers + 1)]
+            layout = plan.share_layout if o.shares == "formation" and plan.share_layout is not None else None
+            cut = setup.states[:, :2] if layout is None else layout
+            shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(cut, o.workers + 1)]
         start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + o.workers_timeout
         extra = {**plan.sync.spec(), "start_timeout": start_timeout}
         specs = [agent_specs(la, setup, plan.steps, ids, everyone, plan.per_agent, **extra) for ids in shares[1:]]

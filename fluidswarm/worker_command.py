@@ -38,8 +38,9 @@ def add_workers_arguments(p) -> None:
         "--shares",
         choices=SHARE_KINDS,
         default=None,
-        help="with --workers: how the start layout is cut between the hosts: compact regions (default; a host's "
-        "agents are each other's neighbours) or ranges of ids (to compare what crosses between hosts)",
+        help="with --workers: how the swarm is cut between the hosts: compact regions of the formation it is going "
+        "to (default: the numpy oracle run ahead; a host's agents stay each other's neighbours), regions of its "
+        "start layout, or ranges of ids (the last two to compare what crosses between hosts)",
     )
     _add_auth_file(p)
 

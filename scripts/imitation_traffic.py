@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """State messages between hosts in an imitation split over three hosts, counted by the compiled routers:
-region shares against id-range shares of the same run (issue 37 item 2, docs/multi-host.md).
+id-range shares, regions of the start layout and regions of the formation ahead (the default), the same run
+each (issue 37 item 2, docs/multi-host.md).
 
 One machine, three routers on loopback (B and C connected to A over tcp/, as tests/test_workers_netns.py's
 hosts), each started with `fluidswarm router --count-traffic`: zenoh's own statistics count every message put
@@ -99,7 +100,7 @@ def main() -> int:
         users = Path(tmp) / "users.txt"
         subprocess.run(FS + ["auth-file", "--agents", str(args.agents), "--out", str(users)], check=True, **KW)
         for k in range(args.rounds):
-            for shares in ("ids", "regions"):
+            for shares in ("ids", "start", "formation"):
                 r = run_once(args.agents, shares, users, Path(tmp) / f"out-{shares}-{k}", args.photo)
                 print(
                     f"{shares}: agents={args.agents} hosts=3 state_messages_between_hosts={r['sent']} "
