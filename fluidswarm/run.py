@@ -289,9 +289,10 @@ class Run:
         self.launcher.use_secret(command_key(password, self.launcher.run, self.salt))
 
     def _serve_workers(self, plan: SwarmPlan) -> SwarmPlan:
-        """Cut the start layout into 1 + workers regions, serve regions 2.. as the run's plan and wait (bounded)
-        until every worker has fetched its share; this host runs region 1 and owns the run's clock."""
-        from agent.sph.regions import regions
+        """Cut the swarm into 1 + workers shares (SHARE_KINDS), serve all but the most central as the run's plan
+        and wait (bounded) until every worker has fetched its share; this host runs the most central one and owns
+        the run's clock."""
+        from agent.sph.regions import central_first, regions
         from swarmhost.launcher import agent_specs, startup_budget
         from swarmhost.workers import PlanServer, share_plans
 
@@ -299,12 +300,15 @@ class Run:
         everyone = [int(i) for i in setup.ids]
         if o.workers + 1 > len(everyone):
             raise UserError(f"--workers {o.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
+        layout = plan.share_layout if o.shares == "formation" and plan.share_layout is not None else None
+        cut = setup.states[:, :2] if layout is None else layout
         if o.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
-            shares = [[int(i) for i in part] for part in np.array_split(np.array(sorted(everyone)), o.workers + 1)]
+            parts = np.array_split(np.argsort(np.asarray(setup.ids), kind="stable"), o.workers + 1)
         else:
-            layout = plan.share_layout if o.shares == "formation" and plan.share_layout is not None else None
-            cut = setup.states[:, :2] if layout is None else layout
-            shares = [sorted(int(setup.ids[k]) for k in part) for part in regions(cut, o.workers + 1)]
+            parts = regions(cut, o.workers + 1)
+        # this host (the workers' routers connect to its router) takes the part bordering the most others
+        parts = central_first(cut, parts, float(setup.params.support))
+        shares = [sorted(int(setup.ids[k]) for k in part) for part in parts]
         start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + o.workers_timeout
         extra = {**plan.sync.spec(), "start_timeout": start_timeout}
         specs = [agent_specs(la, setup, plan.steps, ids, everyone, plan.per_agent, **extra) for ids in shares[1:]]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from agent.protocol.errors import UserError
-from agent.sph.regions import region_sizes, regions, share
+from agent.sph.regions import central_first, region_sizes, regions, share
 from agent.sph.setups import spread_block
 from fluidswarm.swarm_commands import parse_share, share_ids
 
@@ -98,3 +98,19 @@ def test_share_ids_are_the_regions_of_the_block_and_together_the_whole_swarm():
     assert got[0] == list(range(14))  # the block's lowest rows (its longer side is y: 7 rows of 6)
     with pytest.raises(UserError, match="at most one region per agent"):
         share_ids("1/41", setup)
+
+
+def test_the_part_bordering_the_most_others_goes_first():
+    # three bands of a 9 x 3 lattice along x: the middle band borders both others
+    xs, ys = np.meshgrid(np.arange(9.0), np.arange(3.0))
+    pos = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    parts = [
+        np.flatnonzero(pos[:, 0] < 3),
+        np.flatnonzero((pos[:, 0] >= 3) & (pos[:, 0] < 6)),
+        np.flatnonzero(pos[:, 0] >= 6),
+    ]
+    out = central_first(pos, parts, 1.5)
+    assert [p.tolist() for p in out] == [parts[1].tolist(), parts[0].tolist(), parts[2].tolist()]
+    # two parts border each other equally: the order stays; no pair that close: the order stays
+    assert [p.tolist() for p in central_first(pos, parts[:2], 1.5)] == [parts[0].tolist(), parts[1].tolist()]
+    assert [p.tolist() for p in central_first(pos, parts, 0.5)] == [p.tolist() for p in parts]
