@@ -1,4 +1,4 @@
-"""The compiled router (`fluidswarm-router`, agent/native/src/router_main.rs), with the state relay on the
+"""The compiled router (`fluidswarm-router`, agent/native/src/router_program.rs), with the state relay on the
 router's own session (agent/native/src/relay.rs): every launcher's embedded router (`RouterProcess(run, …)`),
 and a host's router of a multi-host swarm (`RouterProcess(None, …)`: `fluidswarm router`, whose relay the
 launchers of its host ask over Zenoh, swarmhost/relay.py).
@@ -28,7 +28,7 @@ from agent.protocol.errors import SwarmFailed
 from swarmhost.executable import router_executable, router_traffic_executable
 
 CONFIG_ENV = "FLUIDSWARM_ROUTER_CONFIG"
-CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_main.rs)
+CLOSE_TIMEOUT = 10.0  # s; the router ends itself 5 s after its stdin closed (router_program.rs)
 START_TIMEOUT = 60.0  # s until it listens (with the rules of 1280 users it opens in ~1 s here)
 
 
@@ -150,7 +150,7 @@ class RouterProcess:
 
     def traffic(self) -> dict[str, int]:
         """State messages this router sent to and received from other routers, and how many routers
-        (`sent`, `received`, `links`); RouterFailed unless it was started with count_traffic (router_main.rs)."""
+        (`sent`, `received`, `links`); RouterFailed unless it was started with count_traffic (router_program.rs)."""
         answer = self.ask("traffic")
         words = answer.split()
         if not words or words[0] != "traffic":

@@ -17,6 +17,8 @@ pub mod relay;
 pub mod robot;
 pub mod route;
 #[cfg(feature = "net")]
+pub mod router_program;
+#[cfg(feature = "net")]
 pub mod session;
 #[cfg(feature = "net")]
 pub mod shell;

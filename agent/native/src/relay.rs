@@ -125,7 +125,7 @@ impl RelayTable {
     }
 }
 
-/// The answer to one request line of the relay's protocol (docs/protocol.md, router_main.rs), for the run of
+/// The answer to one request line of the relay's protocol (docs/protocol.md, router_program.rs), for the run of
 /// `table`: `add <id> <h>` → `ok` | `error <why>`; `rejected` → `rejected length=<n> …`.
 pub fn answer(table: &RelayTable, line: &str) -> String {
     match line.split_whitespace().collect::<Vec<_>>().as_slice() {

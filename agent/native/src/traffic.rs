@@ -26,7 +26,7 @@ pub struct RouterTraffic {
 }
 
 impl RouterTraffic {
-    /// The one-line answer to the `traffic` request (router_main.rs).
+    /// The one-line answer to the `traffic` request (router_program.rs).
     pub fn line(&self) -> String {
         format!("traffic sent={} received={} links={}", self.sent, self.received, self.links)
     }
