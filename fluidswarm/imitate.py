@@ -28,7 +28,8 @@ from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEP
 from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
-from fluidswarm.run import SHARE_KINDS, Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from swarmhost.supervisor import die_with_parent
 
 PERCEIVE_SECONDS = 300.0  # s for the coordinator to perceive a file (a long clip on a loaded 2-core machine)
@@ -278,7 +279,7 @@ def imitate(
     run: str | None = None,
     workers: int = 0,
     auth_file: str = "",
-    workers_timeout: float = 120.0,
+    workers_timeout: float = WORKERS_TIMEOUT,
     realtime: bool = False,
     shares: str = SHARE_KINDS[0],
 ) -> RunRecord:

@@ -35,6 +35,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.recording.progress import Progress
+from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
 from swarmhost.supervisor import stop_process
@@ -46,13 +47,6 @@ if TYPE_CHECKING:
 
 
 REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not keep up (said once)
-
-
-# How a run with workers cuts its swarm between the hosts: compact regions (agent/sph/regions.py: a host's
-# agents are each other's neighbours) of the formation the swarm is going to (`formation`: the kind's
-# SwarmPlan.share_layout, fluidswarm/share_layout.py) or of its start layout (`start`), or ranges of ids (what
-# `launch --ids` does); the last two to compare (docs/multi-host.md)
-SHARE_KINDS = ("formation", "start", "ids")
 
 
 @dataclass(frozen=True)
@@ -123,7 +117,7 @@ class RunOptions:
     auth_file: str = ""
     realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
     workers: int = 0  # with connect and run: the run's other hosts, `fluidswarm worker`s (docs/multi-host.md)
-    workers_timeout: float = 120.0  # s the main host waits for its workers before it starts anything of its own
+    workers_timeout: float = WORKERS_TIMEOUT
     shares: str = SHARE_KINDS[0]  # how the swarm is cut between the hosts (SHARE_KINDS)
 
 

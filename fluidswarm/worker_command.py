@@ -11,9 +11,7 @@ import sys
 
 from agent.protocol.access import AUTH_FILE_ENV
 from agent.protocol.errors import UserError
-from fluidswarm.run import SHARE_KINDS
-
-WORKERS_TIMEOUT = 120.0  # s the main host waits for its workers (--workers-timeout)
+from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 
 
 def add_workers_arguments(p) -> None:

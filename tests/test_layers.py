@@ -23,7 +23,16 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("perception", ("perception",)),
     ("control", ("coordinator.control",)),
     ("processes", ("swarmhost", "coordinator", "fluidswarm.router", "fluidswarm.recording")),
-    ("orchestration", ("fluidswarm.run", "fluidswarm.imitate", "fluidswarm.imitate_camera")),
+    (
+        "orchestration",
+        (
+            "fluidswarm.run",
+            "fluidswarm.imitate",
+            "fluidswarm.imitate_camera",
+            "fluidswarm.share_layout",
+            "fluidswarm.split_options",
+        ),
+    ),
     # the command line: every package's subcommand registration (`commands`) and what only it uses
     (
         "application",
