@@ -2,22 +2,26 @@
 //! docs/security.md, docs/multi-host.md); swarmhost/router_process.py starts it. Two programs are this module
 //! (src/router_main.rs, and src/router_traffic_main.rs built with the `traffic` feature).
 //!
-//!     fluidswarm-router RUN     a launcher's embedded router: relays the agents of RUN its launcher adds
-//!     fluidswarm-router --host  a host's router (`fluidswarm router`, multi-host): relays, for any run, the
-//!                               agents each launcher of its host adds over Zenoh (relay.rs HostRelays)
-//!     fluidswarm-router-traffic RUN | --host   the same, counting the state messages to and from other routers
-//!                               (traffic.rs; built with the `traffic` feature: zenoh's statistics)
+//! ```text
+//! fluidswarm-router RUN     a launcher's embedded router: relays the agents of RUN its launcher adds
+//! fluidswarm-router --host  a host's router (`fluidswarm router`, multi-host): relays, for any run, the
+//!                           agents each launcher of its host adds over Zenoh (relay.rs HostRelays)
+//! fluidswarm-router-traffic RUN | --host   the same, counting the state messages to and from other routers
+//!                           (traffic.rs; built with the `traffic` feature: zenoh's statistics)
+//! ```
 //!
 //! Its Zenoh configuration (endpoints, the users file, the access-control rules, TLS) is a JSON file named by
 //! FLUIDSWARM_ROUTER_CONFIG, written privately by its starter: never on the command line. The starter talks to
 //! it over its stdin and stdout, one line each way (in --host mode the launchers ask over Zenoh instead, the
 //! same requests on `fluidswarm/<run>/relay/<zid>`):
 //!
-//!     (first line out)  ready zid=<zid>     the router listens; its Zenoh id
-//!     add <id> <h>      ok | error <why>    relay agent <id>'s states on cells of side <h> (before it starts)
-//!     rejected          rejected length=<n> version=<n> value=<n> id=<n> key=<n>
-//!     traffic           traffic sent=<n> received=<n> links=<n>   state messages to and from other routers
-//!                       (fluidswarm-router-traffic only; the other says `error ...`)
+//! ```text
+//! (first line out)  ready zid=<zid>     the router listens; its Zenoh id
+//! add <id> <h>      ok | error <why>    relay agent <id>'s states on cells of side <h> (before it starts)
+//! rejected          rejected length=<n> version=<n> value=<n> id=<n> key=<n>
+//! traffic           traffic sent=<n> received=<n> links=<n>   state messages to and from other routers
+//!                   (fluidswarm-router-traffic only; the other says `error ...`)
+//! ```
 //!
 //! The end of stdin (the starter closed it, or died) closes the router. Exit codes: 0 closed, 2 bad
 //! configuration or arguments (one line on stderr).
