@@ -294,8 +294,7 @@ class Run:
         everyone = [int(i) for i in setup.ids]
         if o.workers + 1 > len(everyone):
             raise UserError(f"--workers {o.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
-        layout = plan.share_layout if o.shares == "formation" and plan.share_layout is not None else None
-        cut = setup.states[:, :2] if layout is None else layout
+        cut = setup.states[:, :2] if plan.share_layout is None else plan.share_layout  # `formation`: the kind's
         if o.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
             parts = np.array_split(np.argsort(np.asarray(setup.ids), kind="stable"), o.workers + 1)
         else:

@@ -15,17 +15,10 @@ import sys
 import numpy as np
 from scipy.spatial import cKDTree
 
-from agent.sph.regions import regions
+from agent.sph.regions import part_labels, regions
 from coordinator.control.imitation_setup import prepare
 from fluidswarm.recording.reader import load_run
 from perception.io import load_image
-
-
-def labels(parts: list[np.ndarray], n: int) -> np.ndarray:
-    out = np.empty(n, int)
-    for k, part in enumerate(parts):
-        out[part] = k
-    return out
 
 
 def main(argv: list[str]) -> int:
@@ -38,11 +31,11 @@ def main(argv: list[str]) -> int:
     frames = [f for f in load_run(path, images=False).frames if len(f.ids) == n]
     track = np.array([np.asarray(f.positions)[np.argsort(f.ids), :2] for f in frames])  # (steps, n, 2), by id
     cuts = {
-        "id ranges": labels(np.array_split(np.arange(n), hosts), n),
-        "regions of the start layout": labels(regions(start, hosts), n),
-        "regions of the mean position": labels(regions(track.mean(axis=0), hosts), n),
-        "regions of the middle step": labels(regions(track[len(track) // 2], hosts), n),
-        "regions of the final positions": labels(regions(track[-1], hosts), n),
+        "id ranges": part_labels(np.array_split(np.arange(n), hosts), n),
+        "regions of the start layout": part_labels(regions(start, hosts), n),
+        "regions of the mean position": part_labels(regions(track.mean(axis=0), hosts), n),
+        "regions of the middle step": part_labels(regions(track[len(track) // 2], hosts), n),
+        "regions of the final positions": part_labels(regions(track[-1], hosts), n),
     }
     crossing = dict.fromkeys(cuts, 0)
     pairs_seen = 0

@@ -27,7 +27,7 @@ from agent.protocol import keys
 from agent.protocol.ctl import Clock, End, Gone, ctl_message
 from agent.protocol.errors import SwarmTimeout
 from agent.protocol.pace import Pace, decode_pace, pace_expr, pace_key
-from agent.protocol.wire import STATE_SIZE, peek_id_step
+from agent.protocol.wire import batch_records, peek_id_step
 
 # s between ctl/clock messages. Agents stay within CLOCK_LEAD (3) steps of the clock, so a 10 Hz clock capped
 # every swarm at ~30 steps/s; the compiled agents run faster than that.
@@ -176,9 +176,8 @@ class Pacer:
         """A state on its sender's key, or a router's batch of states (split run's main host)."""
         data, key = sample.payload.to_bytes(), str(sample.key_expr)
         if keys.is_batch_key(self.run, key):  # only routers may put there (docs/security.md); each record checked
-            if len(data) % STATE_SIZE == 0:
-                for at in range(0, len(data), STATE_SIZE):
-                    self._on_state(data[at : at + STATE_SIZE], None)
+            for record in batch_records(data) or ():
+                self._on_state(record, None)
             return
         self._on_state(data, key)
 

@@ -41,6 +41,15 @@ peek_id_position = native.state_peek_id_position
 peek_id_step = native.state_peek_id_step
 
 
+def batch_records(data: bytes) -> list[bytes] | None:
+    """The state records of a router's batch (docs/protocol.md "State batches": whole records, concatenated), or
+    None when its length is not a whole number of records (refused whole). Each record is still the receiver's to
+    check."""
+    if len(data) % STATE_SIZE:
+        return None
+    return [data[at : at + STATE_SIZE] for at in range(0, len(data), STATE_SIZE)]
+
+
 def encode_state(agent_id: int, step: int, state: Sequence[float], particle_class: int = 0) -> bytes:
     """The record of `state` (NFIELDS values, agent/sph/particle.py; FROZEN nonzero: flags bit 0)."""
     return native.state_encode(agent_id, step, [float(v) for v in state], particle_class)

@@ -60,6 +60,14 @@ def share(positions: np.ndarray, k: int, m: int) -> np.ndarray:
     return regions(positions, m)[k - 1]
 
 
+def part_labels(parts: list[np.ndarray], n: int) -> np.ndarray:
+    """For each of `n` positions, the index of the part (index arrays) that holds it; -1 for none."""
+    label = np.full(n, -1, dtype=int)
+    for k, part in enumerate(parts):
+        label[part] = k
+    return label
+
+
 def central_first(positions: np.ndarray, parts: list[np.ndarray], radius: float) -> list[np.ndarray]:
     """`parts` (index arrays into `positions`) with the part that has the most pairs within `radius` of the
     other parts moved first, the others in their order (ties: the earlier part).
@@ -72,9 +80,7 @@ def central_first(positions: np.ndarray, parts: list[np.ndarray], radius: float)
     from scipy.spatial import cKDTree
 
     pos = np.asarray(positions, dtype=float)
-    label = np.full(len(pos), -1, dtype=int)  # -1: in no part
-    for k, part in enumerate(parts):
-        label[part] = k
+    label = part_labels(parts, len(pos))
     pairs = cKDTree(pos).query_pairs(radius, output_type="ndarray")
     pairs = pairs.reshape(-1, 2)  # (0, 2) when no pair is that close
     a, b = label[pairs[:, 0]], label[pairs[:, 1]]

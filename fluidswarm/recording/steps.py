@@ -19,7 +19,7 @@ import zenoh
 from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
 from agent.protocol.report import Status, decode_report
-from agent.protocol.wire import STATE_SIZE, decode_state
+from agent.protocol.wire import batch_records, decode_state
 from agent.sph.particle import HEADING, RHO, VX, VY, P, X, Y
 from agent.sph.robot import RobotKind, body_centres
 from fluidswarm.recording.writer import RunWriter
@@ -127,11 +127,12 @@ class Recorder:
             # from its sender's own key and checked against it by the relay; on an exact batch key, which only
             # routers may put. Each record is still decoded (untrusted bytes, whoever vouched).
             data, key = data
-            if not keys.is_batch_key(self.run, key) or len(data) % STATE_SIZE:
+            records = batch_records(data) if keys.is_batch_key(self.run, key) else None
+            if records is None:
                 self.rejected += 1
                 return
-            for at in range(0, len(data), STATE_SIZE):
-                decoded, _reason = decode_state(data[at : at + STATE_SIZE])
+            for record in records:
+                decoded, _reason = decode_state(record)
                 if decoded is None:
                     self.rejected += 1
                 else:
