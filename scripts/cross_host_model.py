@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from agent.sph.reference import VectorisedDriver
-from agent.sph.regions import central_first, regions
+from agent.sph.regions import central_first, part_labels, regions
 from coordinator.control.imitation_setup import prepare
 from coordinator.control.route import followers_for
 from perception.io import load_image
@@ -99,13 +99,6 @@ def straight_cuts(at: np.ndarray, m: int) -> list[list[np.ndarray]]:
     return out
 
 
-def labels_of(parts: list[np.ndarray], n: int) -> np.ndarray:
-    label = np.full(n, -1, dtype=int)
-    for k, part in enumerate(parts):
-        label[part] = k
-    return label
-
-
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--agents", type=int, default=180)
@@ -134,7 +127,7 @@ def main(argv: list[str]) -> int:
     r_mid = r_sub + 0.25 * p.h
 
     def rough_cost(parts: list[np.ndarray]) -> float:
-        label = labels_of(central_first(ahead, parts, float(p.support)), n)
+        label = part_labels(central_first(ahead, parts, float(p.support)), n)
         return float(np.mean([messages_per_step(q, label, m, r_mid, p.h) for q in rough]))
 
     cuts[f"best of {len(straight_cuts(ahead, m))} straight cuts of the formation ahead"] = min(
@@ -149,7 +142,7 @@ def main(argv: list[str]) -> int:
     base = None
     for name, parts in cuts.items():
         at = ahead if "formation" in name else path[0]  # what fluidswarm/run.py hands central_first
-        label = labels_of(central_first(at, parts, float(p.support)), n)
+        label = part_labels(central_first(at, parts, float(p.support)), n)
         lo = np.mean([messages_per_step(path[s], label, m, r_sub, p.h) for s in range(0, len(path), args.every)])
         hi = np.mean(
             [messages_per_step(path[s], label, m, r_sub + 0.5 * p.h, p.h) for s in range(0, len(path), args.every)]
