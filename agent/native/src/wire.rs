@@ -73,7 +73,13 @@ fn u32_at(data: &[u8], at: usize) -> u32 {
     u32::from_le_bytes([data[at], data[at + 1], data[at + 2], data[at + 3]])
 }
 
-pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
+fn f64_at(data: &[u8], at: usize) -> f64 {
+    f64::from_le_bytes(data[at..at + 8].try_into().expect("8 bytes"))
+}
+
+/// The checks of a state record's header, in the order receivers name them: version, length, kind (a record of
+/// another kind is another version of the state record to a receiver of states).
+fn check_state_header(data: &[u8]) -> Result<(), &'static str> {
     if data.first() != Some(&VERSION) {
         return Err(REJECT_VERSION);
     }
@@ -83,6 +89,11 @@ pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
     if data[1] != KIND_STATE {
         return Err(REJECT_VERSION);
     }
+    Ok(())
+}
+
+pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
+    check_state_header(data)?;
     let flags = u16_at(data, 2);
     let id = u32_at(data, 4);
     if id > MAX_ID || flags > 1 {
@@ -90,8 +101,7 @@ pub fn decode_state(data: &[u8]) -> Result<StateRecord, &'static str> {
     }
     let mut values = [0.0; NFIELDS];
     for (k, &field) in WIRE_FIELDS.iter().enumerate() {
-        let at = FLOATS_AT + 8 * k;
-        let v = f64::from_le_bytes(data[at..at + 8].try_into().expect("8 bytes"));
+        let v = f64_at(data, FLOATS_AT + 8 * k);
         // Written as a negated range test so NaN fails it too, as in Python.
         if !(-MAX_ABS..=MAX_ABS).contains(&v) {
             return Err(REJECT_VALUE);
@@ -117,17 +127,8 @@ pub fn peek_id_step(data: &[u8]) -> Option<(u32, u32)> {
 /// (id, x, y) of a state record for routing it by position (the router's relay), or the reason decode_state
 /// gives for its header and position (agent/protocol/wire.py: peek_id_position). Receivers decode it in full.
 pub fn peek_id_position(data: &[u8]) -> Result<(u32, f64, f64), &'static str> {
-    if data.first() != Some(&VERSION) {
-        return Err(REJECT_VERSION);
-    }
-    if data.len() != STATE_SIZE {
-        return Err(REJECT_LENGTH);
-    }
-    if data[1] != KIND_STATE {
-        return Err(REJECT_VERSION);
-    }
-    let x = f64::from_le_bytes(data[FLOATS_AT..FLOATS_AT + 8].try_into().expect("8 bytes"));
-    let y = f64::from_le_bytes(data[FLOATS_AT + 8..FLOATS_AT + 16].try_into().expect("8 bytes"));
+    check_state_header(data)?;
+    let (x, y) = (f64_at(data, FLOATS_AT), f64_at(data, FLOATS_AT + 8));
     if !(-MAX_ABS..=MAX_ABS).contains(&x) || !(-MAX_ABS..=MAX_ABS).contains(&y) {
         return Err(REJECT_VALUE); // also NaN and infinities
     }
