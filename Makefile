@@ -49,11 +49,10 @@ demo: install
 # Unit tests first (no processes, on both cores: pytest-xdist), then the swarm tests (tests/conftest.py draws
 # the line), one at a time: they measure stalls and recovery times in wall seconds. Both always run: the swarm
 # tests run even when a unit test failed, and `make test` fails if either did. The swarm tests list their
-# slowest ten: the whole target has a 10-minute budget (CI's machine: 2 cores).
+# slowest ten: the target's budget is 10 minutes and it takes more (README, docs/benchmarks/native.md).
 # The crate's tests are its library's, tests/ and the doctests (`--lib --tests`, then `--doc`: cargo refuses them
-# in one call): a bare `cargo test` also builds the examples, and bare_exchange is one more thin-LTO link of all
-# of zenoh, 70 s of a fresh clone's 74 s of cargo test (cargo --timings), for no test; clippy --all-targets
-# (make lint) still compiles every example.
+# in one call): a bare `cargo test` also builds the examples, bare_exchange one more thin-LTO link of zenoh (70 s
+# of 74 s on a fresh clone, cargo --timings) for no test; clippy --all-targets (make lint) compiles the examples.
 test: install router-traffic netfault-tools lint
 	$(CARGO) test --release --locked --lib --tests --manifest-path $(NATIVE)/Cargo.toml
 	$(CARGO) test --release --locked --doc --manifest-path $(NATIVE)/Cargo.toml

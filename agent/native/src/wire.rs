@@ -77,8 +77,8 @@ fn f64_at(data: &[u8], at: usize) -> f64 {
     f64::from_le_bytes(data[at..at + 8].try_into().expect("8 bytes"))
 }
 
-/// The checks of a state record's header, in the order receivers name them: version, length, kind (a record of
-/// another kind is another version of the state record to a receiver of states).
+/// The checks of a state record's header, in the order receivers name them: version, length, kind (a wrong kind
+/// byte is rejected as `version`, as decode_state always did).
 fn check_state_header(data: &[u8]) -> Result<(), &'static str> {
     if data.first() != Some(&VERSION) {
         return Err(REJECT_VERSION);
