@@ -224,6 +224,8 @@ def imitate_camera(
     stall_seconds: float = 5.0,
     live: str = "",
     name: str = "camera",
+    ros2: str = "",
+    ros2_router: str = "",
     subject: str = "person",
     robot: RobotModel = POINT,
     radio: RadioModel = PERFECT,
@@ -231,7 +233,8 @@ def imitate_camera(
     """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
     kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject, robot=robot, radio=radio)
     with Run(
-        kind, RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, commands=True, realtime=True)
+        kind,
+        RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, ros2=ros2, commands=True, realtime=True),
     ) as run:
         kind.drive(run)
     return run.record

@@ -11,6 +11,7 @@ from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_opti
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
@@ -53,6 +54,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_ros2_arguments(p)
     add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_imitate)
@@ -81,7 +83,7 @@ def _imitate(args) -> int:
     hosts = workers_options(args)
     if hosts and args.camera is not None:
         raise UserError("--workers: a file only (--camera runs on one host)")
-    live = live_from_args(args)
+    live, ros2 = live_from_args(args), ros2_from_args(args)
     robot = robot_model(args.robot)
     radio = radio_model(radio_options(args))
     if args.camera is not None:
@@ -96,6 +98,8 @@ def _imitate(args) -> int:
             fps=args.fps,
             stall_seconds=args.stall_seconds,
             live=live,
+            ros2=ros2,
+            ros2_router=args.ros2_router,
             subject=args.subject,
             robot=robot,
             radio=radio,
@@ -113,6 +117,7 @@ def _imitate(args) -> int:
             frame=args.frame,
             name=Path(args.input).stem or "imitate",
             live=live,
+            ros2=ros2,
             robot=robot,
             radio=radio,
             realtime=args.realtime,

@@ -110,6 +110,7 @@ class RunOptions:
     failures: tuple = ()
     seed: int = 0
     live: str = ""
+    ros2: str = ""  # the ROS 2 router's endpoint: the recorder also publishes the run there (docs/ros2.md)
     commands: bool = False
     progress: bool = False
     run: str | None = None
@@ -368,6 +369,7 @@ class Run:
             image=image,
             live=self.options.live,
             coordinator_events=coordinator_events,
+            ros2=self.options.ros2,
         )
         return self.mcap
 

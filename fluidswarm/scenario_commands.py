@@ -15,6 +15,7 @@ from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_m
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -69,6 +70,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_ros2_arguments(p)
     add_realtime_argument(p)
     add_workers_arguments(p)
     add_json_argument(p)
@@ -78,6 +80,7 @@ def register(sub) -> None:
     add_robot_argument(p)
     add_radio_arguments(p)
     add_live_argument(p)
+    add_ros2_arguments(p)
     add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_demo)
@@ -166,7 +169,13 @@ def kind_for(sc: Scenario, agents: int):
 
 
 def run_once(
-    sc: Scenario, agents: int, out: Path, live: str = "", realtime: bool = False, hosts: dict | None = None
+    sc: Scenario,
+    agents: int,
+    out: Path,
+    live: str = "",
+    realtime: bool = False,
+    hosts: dict | None = None,
+    ros2: str = "",
 ) -> RunRecord:
     """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock;
     `hosts`: with workers on other hosts (worker_command.workers_options: connect, run, workers, ...)."""
@@ -183,6 +192,7 @@ def run_once(
         failures=sc.failures,
         seed=sc.seed,
         live=live,
+        ros2=ros2,
         commands=imitation,
         progress=True,
         realtime=realtime,
@@ -204,6 +214,7 @@ def execute(
     live: str = "",
     realtime: bool = False,
     hosts: dict | None = None,
+    ros2: str = "",
 ) -> RunRecord:
     """Run a scenario; with failures and a fidelity-ratio criterion (or `compare`), first the same scenario
     without failures (same seed, out/baseline) so the two fidelities are measured side by side."""
@@ -215,7 +226,7 @@ def execute(
         clean = replace(sc, failures=(), passing=PassCriteria())
         print(f"baseline: {sc.name} without failures (same seed) -> {out / 'baseline'}", file=sys.stderr)
         baseline = run_once(clean, agents, out / "baseline", realtime=realtime)
-    record = run_once(sc, agents, out, live, realtime, hosts)  # the baseline is not streamed
+    record = run_once(sc, agents, out, live, realtime, hosts, ros2)  # the baseline is not streamed
     return judge(sc, record, out, baseline)
 
 
@@ -306,7 +317,17 @@ def _run(args) -> int:
         if sc.failures or args.compare:
             raise UserError(f"--workers: {sc.path} injects failures; a scenario without failures only")
     return _report(
-        args, execute(sc, args.agents, out, compare=args.compare, live=live, realtime=args.realtime, hosts=hosts)
+        args,
+        execute(
+            sc,
+            args.agents,
+            out,
+            compare=args.compare,
+            live=live,
+            realtime=args.realtime,
+            hosts=hosts,
+            ros2=ros2_from_args(args),
+        ),
     )
 
 
@@ -325,4 +346,7 @@ def _demo(args) -> int:
     if args.robot is not None:
         sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
     sc = with_radio_options(sc, args)
-    return _report(args, execute(sc, None, Path(args.out), live=live_from_args(args), realtime=args.realtime))
+    return _report(
+        args,
+        execute(sc, None, Path(args.out), live=live_from_args(args), realtime=args.realtime, ros2=ros2_from_args(args)),
+    )

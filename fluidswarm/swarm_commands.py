@@ -13,6 +13,7 @@ from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_m
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
 
 
 def register(sub) -> None:
@@ -46,6 +47,7 @@ def register(sub) -> None:
         "pipe: what scripts/soak.py reads)",
     )
     add_live_argument(p)
+    add_ros2_arguments(p)
     add_robot_argument(p)
     add_radio_arguments(p)
     add_obstacles_argument(p)
@@ -225,6 +227,9 @@ def _launch(args) -> int:
         raise UserError("--live needs --record FILE.mcap (the recorder process serves the live view)")
     options = _options(args, "launch", args.timeout)
     options.live = live_from_args(args)
+    options.ros2 = ros2_from_args(args)
+    if options.ros2 and not args.record:
+        raise UserError("--ros2 needs --record FILE.mcap (the recorder process publishes the run)")
     options.progress = args.progress
     if args.share and not args.run:
         raise UserError("--share needs --run: every host of a split run must use the same run name")

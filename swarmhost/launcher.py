@@ -197,11 +197,21 @@ class Launcher:
         image: str = "",
         live: str = "",
         coordinator_events: str = "",
+        ros2: str = "",
     ):
         if self._events is None:
             self._events = Path(tempfile.mkdtemp(prefix="fluidswarm-launcher-"))
         proc = self.recorder.start(
-            path, metadata, dt, timeout, target, image, live, coordinator_events, launcher_events=str(self._events)
+            path,
+            metadata,
+            dt,
+            timeout,
+            target,
+            image,
+            live,
+            coordinator_events,
+            launcher_events=str(self._events),
+            ros2=ros2,
         )
         self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
         return proc

@@ -37,12 +37,14 @@ class RecorderProcess:
         live: str = "",
         coordinator_events: str = "",
         launcher_events: str = "",
+        ros2: str = "",
     ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket;
         `coordinator_events`: a camera coordinator's events folder, `launcher_events` the launcher's, followed
-        (recording/coordinator_events.py)."""
+        (recording/coordinator_events.py); `ros2`: the ROS 2 router's endpoint, the run also published there
+        (fluidswarm/ros2/bridge.py)."""
         check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
@@ -75,6 +77,8 @@ class RecorderProcess:
             cmd += ["--coordinator-events", coordinator_events]
         if launcher_events:
             cmd += ["--launcher-events", launcher_events]
+        if ros2:
+            cmd += ["--ros2", ros2]
         self.proc = subprocess.Popen(
             cmd,
             stdout=out,
@@ -105,6 +109,10 @@ class RecorderProcess:
             return None
         stop_process(self.proc, timeout)
         if self._stderr is not None:
+            self._stderr.seek(0)
+            for line in self._stderr.read().splitlines():
+                if line.startswith("ros2: "):  # the ROS 2 bridge's notes (an absent or lost router) are the user's
+                    print(line[:300], file=sys.stderr, flush=True)
             self._stderr.close()
             self._stderr = None
         return self.proc.returncode

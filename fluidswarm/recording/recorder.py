@@ -30,7 +30,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
 from agent.sph.obstacles import Obstacle, obstacles_from
-from agent.sph.robot import POINT, RobotModel
+from agent.sph.robot import POINT, RobotKind, RobotModel
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.contacts import ContactCounter
@@ -54,6 +54,25 @@ def obstacles_of(metadata: dict) -> tuple[Obstacle, ...]:
         return obstacles_from(metadata.get("obstacles", []))
     except ValueError:
         return ()
+
+
+def ros2_bridge(endpoint: str, robot: RobotModel):
+    """The ROS 2 node of `--ros2 ENDPOINT` (fluidswarm/ros2/bridge.py), on the domain of ROS_DOMAIN_ID."""
+    from fluidswarm.ros2.bridge import Bridge
+    from fluidswarm.ros2.rmw import domain_from_env
+
+    return Bridge(endpoint, domain_from_env(), robot.kind == RobotKind.UNICYCLE, print)
+
+
+def noting(writer: RunWriter, now):
+    """The bridge's notes: one line on stderr (the launcher shows the recorder's `ros2:` lines when it stops it)
+    and a warning in the MCAP (name `ros2`)."""
+
+    def note(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+        writer.write_event(now(), "warning", "ros2", line, kind="ros2")
+
+    return note
 
 
 def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2, follow: tuple = ()) -> None:
@@ -87,6 +106,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--live", default="", metavar="HOST:PORT", help="also serve the run over Foxglove WebSocket")
     ap.add_argument(
+        "--ros2",
+        default="",
+        metavar="ENDPOINT",
+        help="also publish the run on ROS 2 through the router at ENDPOINT (rmw_zenoh's format; docs/ros2.md)",
+    )
+    ap.add_argument(
         "--state-keys",
         choices=("id", "cell"),
         default="cell",
@@ -112,8 +137,10 @@ def main(argv: list[str] | None = None) -> int:
         except (UserError, RuntimeError) as exc:
             print(f"fluidswarm record: error: --live {args.live}: {exc}", file=sys.stderr)
             return 2
+    robot, obstacles = robot_of(metadata), obstacles_of(metadata)
+    bridge = ros2_bridge(args.ros2, robot) if args.ros2 else None
     try:
-        writer = RunWriter(args.out, metadata, live=live)
+        writer = RunWriter(args.out, metadata, live=live, tap=bridge)
     except OSError as exc:
         print(f"fluidswarm record: error: --out {args.out}: {exc.strerror or exc}", file=sys.stderr)
         if live is not None:
@@ -137,11 +164,13 @@ def main(argv: list[str] | None = None) -> int:
             gesture if isinstance(gesture, str) else None,
         )
     launcher = CoordinatorEvents(args.launcher_events, writer, None) if args.launcher_events else None
-    robot, obstacles = robot_of(metadata), obstacles_of(metadata)
     if obstacles:
         writer.write_obstacles(0.0, obstacles)
     counting = not robot.is_point or obstacles
     recorder = Recorder(args.run, writer, args.dt, ContactCounter(robot, obstacles) if counting else None)
+    if bridge is not None:
+        bridge.note = noting(writer, lambda: recorder.t(recorder.next_step))
+        bridge.start()
     # credentials come from the environment the launcher sets, never from argv (docs/security.md)
     session = zenoh.open(client_config([args.connect]))
     try:
@@ -191,6 +220,8 @@ def main(argv: list[str] | None = None) -> int:
             writer.write_timing({"realtime_factor": factor, "steps_seen": span[2] - span[0] + 1})
         if recorder.contacts is not None:
             writer.write_robots(recorder.contacts.figures())
+        if bridge is not None:
+            bridge.close()
         writer.close()
         try:
             session.close()

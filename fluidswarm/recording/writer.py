@@ -97,9 +97,12 @@ class RunWriter:
         chunk_size: int = 512 * 1024,
         live=None,
         flush_seconds: float = FLUSH_SECONDS,
+        tap=None,
     ):
         """`live` (recording.live.LiveServer or None): also gets every message, as it is written;
-        `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS)."""
+        `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS); `tap`
+        (fluidswarm.ros2.bridge.Bridge or None): also handed each target, obstacle set, command and event (and,
+        by the recorder, each step)."""
         meta = dict(metadata)
         self.run = str(meta.get("run") or Path(path).stem)
         if not self.run or any(c in self.run for c in "/*$?#") or self.run.strip() != self.run:
@@ -125,6 +128,7 @@ class RunWriter:
         self._schema_ids: dict[str, int] = {}
         self._targets = 0
         self._live = live
+        self.tap = tap
         self._mcap.add_metadata("run", encode_metadata(meta))
         self._flush_seconds = float(flush_seconds)
         self._mcap.flush()  # the header and the run's metadata: a file killed at once is still an MCAP file
@@ -280,11 +284,15 @@ class RunWriter:
 
         if not self._submit(op):
             return False
+        if self.tap is not None:
+            self.tap.target(t, mask, transform)
         return self._write(sc.SCENE, t, payload, latch="target")
 
     def write_obstacles(self, t: float, obstacles: Sequence[Obstacle]) -> bool:
         """The domain's obstacles as the scene's entity `obstacles` (messages.obstacle_outlines), sent again
         to a live viewer that connects later."""
+        if self.tap is not None:
+            self.tap.obstacles(t, tuple(obstacles))
         return self._write(sc.SCENE, t, msg.obstacle_outlines(t, obstacles), latch="obstacles")
 
     def write_bodies(self, t: float, centres, headings, radius: float) -> bool:
@@ -325,6 +333,8 @@ class RunWriter:
             raise ValueError(f"command is not JSON: {exc}") from None
         if not isinstance(command, dict):
             raise ValueError("command must be a JSON object")  # noqa: TRY004  # one error type for bad commands
+        if self.tap is not None:
+            self.tap.command(t, command_json)
         return self._write(sc.COMMAND, t, command)
 
     def write_image(self, t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> bool:
@@ -343,4 +353,7 @@ class RunWriter:
         step: int | None = None,
     ) -> bool:
         """A `foxglove.Log` on `fluidswarm/<run>/event` (messages.event_log: level, kind, agent, step)."""
-        return self._write(sc.EVENTS, t, msg.event_log(t, level, name, message, kind=kind, agent=agent, step=step))
+        payload = msg.event_log(t, level, name, message, kind=kind, agent=agent, step=step)
+        if self.tap is not None:
+            self.tap.event(t, level, name, message, kind, agent, step)
+        return self._write(sc.EVENTS, t, payload)

@@ -1,0 +1,40 @@
+"""`--ros2` and `--ros2-router ENDPOINT` on the commands that record a run (docs/ros2.md)."""
+
+from __future__ import annotations
+
+import sys
+
+from agent.protocol.errors import UserError
+from fluidswarm.ros2.rmw import DEFAULT_ROUTER, check_endpoint, domain_from_env
+
+
+def add_ros2_arguments(parser) -> None:
+    parser.add_argument(
+        "--ros2",
+        action="store_true",
+        help="also publish the run on ROS 2 (rmw_zenoh's format: node /fluidswarm, /fluidswarm/poses, /tf, ...; "
+        "domain from ROS_DOMAIN_ID)",
+    )
+    parser.add_argument(
+        "--ros2-router",
+        default=DEFAULT_ROUTER,
+        metavar="ENDPOINT",
+        help=f"the ROS 2 system's Zenoh router (default {DEFAULT_ROUTER}, rmw_zenohd's)",
+    )
+
+
+def ros2_from_args(args) -> str:
+    """The ROS 2 router's endpoint for the recorder ('' without --ros2); a bad endpoint or ROS_DOMAIN_ID is one
+    line before anything starts."""
+    router = getattr(args, "ros2_router", DEFAULT_ROUTER)
+    try:
+        check_endpoint(router)
+        domain = domain_from_env()
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if not getattr(args, "ros2", False):
+        if router != DEFAULT_ROUTER:
+            raise UserError("--ros2-router needs --ros2")
+        return ""
+    print(f"ros2: node /fluidswarm on domain {domain} through {router}", file=sys.stderr, flush=True)
+    return router
