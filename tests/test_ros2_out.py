@@ -29,6 +29,7 @@ PUBLISHED = {
     "/fluidswarm/target": "visualization_msgs/msg/MarkerArray",
     "/fluidswarm/command": "std_msgs/msg/String",
     "/fluidswarm/events": "std_msgs/msg/String",
+    "/fluidswarm/image": "sensor_msgs/msg/CompressedImage",
 }
 
 
@@ -125,6 +126,8 @@ def test_a_ros2_peer_finds_the_node_and_reads_the_recorded_states_step_for_step(
     assert outlines and all(len(m.points) >= 4 and m.header.frame_id == "world" for m in outlines)
     command = json.loads(decode(got["/fluidswarm/command"][0][0], "std_msgs/msg/String").data)
     assert command == recording.commands[0][1]
+    image = decode(got["/fluidswarm/image"][0][0], "sensor_msgs/msg/CompressedImage")  # latched too
+    assert image.format == "jpeg" and image.data.tobytes() == recording.images[0].data
     events = [json.loads(decode(p, "std_msgs/msg/String").data) for p, _ in got["/fluidswarm/events"]]
     assert {e["kind"] for e in events} >= {"finished"}
 

@@ -31,6 +31,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="a file whose writer died (no footer): rewrite it finished with every whole record it "
         "holds; print what was kept and dropped, and complete=, steps=, missing_states=",
     )
+    p.add_argument(
+        "--ros2-bag",
+        metavar="DIR",
+        help="write the run as a new rosbag2 directory (MCAP storage, CDR, standard types: docs/ros2.md) instead "
+        "of rendering it; prints each topic's message count",
+    )
     p.add_argument("--max-frames", type=int, default=120, metavar="N", help="GIF frames at most (default 120)")
     p.add_argument("--fps", type=float, default=10.0, help="GIF frame rate (default 10)")
     p.set_defaults(func=_main)
@@ -39,6 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _main(args: argparse.Namespace) -> int:
     if args.recover:
         return _recover(args.run)
+    if args.ros2_bag:
+        return _ros2_bag(args.run, args.ros2_bag)
     if args.check:
         run = load_run(args.run, images=False)
         c = completeness(run)
@@ -69,6 +77,20 @@ def _main(args: argparse.Namespace) -> int:
             print(f"{key}={v:.4f}" if isinstance(v, float) else f"{key}={v}")
     for path in result.paths:
         print(f"wrote {path}")
+    return 0
+
+
+def _ros2_bag(name: str, out: str) -> int:
+    """`replay --ros2-bag DIR` (fluidswarm/ros2/bag.py): the directory is checked before the file is read."""
+    from pathlib import Path
+
+    from fluidswarm.ros2.bag import check_bag_dir, write_bag
+
+    check_bag_dir(Path(out))
+    summary = write_bag(load_run(name), Path(out))
+    for topic, count in summary.counts.items():
+        print(f"{topic} {count}")
+    print(f"wrote {summary.path}")
     return 0
 
 

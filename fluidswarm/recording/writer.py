@@ -101,8 +101,8 @@ class RunWriter:
     ):
         """`live` (recording.live.LiveServer or None): also gets every message, as it is written;
         `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS); `tap`
-        (fluidswarm.ros2.bridge.Bridge or None): also handed each target, obstacle set, command and event (and,
-        by the recorder, each step)."""
+        (fluidswarm.ros2.bridge.Bridge or None): also handed each target, obstacle set, command, event and image
+        (and, by the recorder, each step)."""
         meta = dict(metadata)
         self.run = str(meta.get("run") or Path(path).stem)
         if not self.run or any(c in self.run for c in "/*$?#") or self.run.strip() != self.run:
@@ -339,6 +339,8 @@ class RunWriter:
 
     def write_image(self, t: float, jpeg_bytes: bytes, frame_id: str = "camera", fmt: str = "jpeg") -> bool:
         """The perception input on `fluidswarm/<run>/perception/image` (messages.compressed_image)."""
+        if self.tap is not None:
+            self.tap.image(t, jpeg_bytes, fmt, frame_id)
         return self._write(sc.IMAGE, t, msg.compressed_image(t, jpeg_bytes, frame_id, fmt), latch=f"image/{frame_id}")
 
     def write_event(

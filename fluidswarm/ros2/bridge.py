@@ -12,6 +12,7 @@ few seconds.
 
 from __future__ import annotations
 
+import json
 import queue
 import threading
 from collections.abc import Callable
@@ -67,7 +68,10 @@ class Bridge:
         self._put(("obstacles", t, m.obstacle_loops(tuple(obstacles))))
 
     def command(self, t: float, text: str) -> None:
-        self._put(("command", t, text))
+        self._put(("command", t, m.command_text(json.loads(text))))
+
+    def image(self, t: float, data: bytes, fmt: str, frame: str) -> None:
+        self._put(("image", t, m.compressed_image(t, data, fmt, frame)))
 
     def event(self, t: float, level, name: str, message: str, kind=None, agent=None, step=None) -> None:
         if name != "ros2":  # its own notes are for the MCAP and the user, not echoed onto ROS 2
@@ -139,4 +143,6 @@ class Bridge:
             pubs[m.COMMAND].put(m.text(item[2]))
         elif kind == "event":
             pubs[m.EVENTS].put(m.text(item[2]))
+        elif kind == "image":
+            pubs[m.IMAGE].put(item[2])
         self.published += 1

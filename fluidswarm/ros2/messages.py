@@ -19,10 +19,11 @@ from rosbags.typesys import Stores, get_typestore
 
 from agent.sph.obstacles import Circle, Obstacle
 from coordinator.control.geometry import ImageToDomain
+from fluidswarm.recording.schemas import LOG_LEVELS
 from fluidswarm.ros2.rmw import KEEP_LAST, RELIABLE, TRANSIENT_LOCAL, VOLATILE, Qos
 
 WORLD = "world"
-POSES, PARTICLES, TF, CLOCK, TARGET, COMMAND, EVENTS = (
+POSES, PARTICLES, TF, CLOCK, TARGET, COMMAND, EVENTS, IMAGE = (
     "/fluidswarm/poses",
     "/fluidswarm/particles",
     "/tf",
@@ -30,6 +31,7 @@ POSES, PARTICLES, TF, CLOCK, TARGET, COMMAND, EVENTS = (
     "/fluidswarm/target",
     "/fluidswarm/command",
     "/fluidswarm/events",
+    "/fluidswarm/image",
 )
 
 
@@ -50,6 +52,7 @@ TOPICS = (
     Topic(TARGET, "visualization_msgs/msg/MarkerArray", Qos(RELIABLE, TRANSIENT_LOCAL, KEEP_LAST, 1)),
     Topic(COMMAND, "std_msgs/msg/String", Qos(RELIABLE, TRANSIENT_LOCAL, KEEP_LAST, 1)),
     Topic(EVENTS, "std_msgs/msg/String", Qos(RELIABLE, VOLATILE, KEEP_LAST, 100)),
+    Topic(IMAGE, "sensor_msgs/msg/CompressedImage", Qos(RELIABLE, TRANSIENT_LOCAL, KEEP_LAST, 1)),
 )
 BY_NAME = {t.name: t for t in TOPICS}
 
@@ -76,7 +79,7 @@ def type_hash(msgtype: str) -> str:
 @cache
 def msgdef(msgtype: str) -> str:
     """The full .msg text with its dependencies (rosbag2's `ros2msg` schema encoding)."""
-    return typestore().generate_msgdef(msgtype)[0]
+    return typestore().generate_msgdef(msgtype, ros_version=2)[0]
 
 
 def serialize(msg, msgtype: str) -> bytes:
@@ -179,10 +182,27 @@ def text(value: str) -> bytes:
 
 
 def event_text(level, name: str, message: str, kind: str | None, agent: int | None, step: int | None) -> str:
-    """A run event as the JSON line on /fluidswarm/events."""
+    """A run event as the JSON object on /fluidswarm/events; `level` by name (info, warning, ...), as given to the
+    recorder's writer or as the MCAP keeps it (a number)."""
+    if not isinstance(level, str):
+        level = next((k for k, v in LOG_LEVELS.items() if v == int(level)), "unknown")
     return json.dumps(
-        {"level": level, "name": name, "message": message, "kind": kind, "agent": agent, "step": step}, sort_keys=True
+        {"level": level.lower(), "name": name, "message": message, "kind": kind, "agent": agent, "step": step},
+        sort_keys=True,
     )
+
+
+def command_text(command: dict) -> str:
+    """The gesture command (the JSON object the coordinator published) on /fluidswarm/command."""
+    return json.dumps(command, sort_keys=True, separators=(",", ":"))
+
+
+def compressed_image(t: float, data: bytes, fmt: str, frame: str) -> bytes:
+    """The perception input as sensor_msgs/CompressedImage (format "jpeg", "png")."""
+    msg = _t("sensor_msgs/msg/CompressedImage")(
+        header=header(t, frame), format=fmt, data=np.frombuffer(bytes(data), np.uint8)
+    )
+    return serialize(msg, "sensor_msgs/msg/CompressedImage")
 
 
 def outline_loops(mask: np.ndarray, transform: ImageToDomain) -> list[np.ndarray]:
