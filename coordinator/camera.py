@@ -226,6 +226,22 @@ def load_observation(path: Path) -> Observation:
         return Observation(str(z["kind"]), z["mask"].astype(bool), str(z["label"]), z["frame"], parts)
 
 
+def open_stream(source: str, params, ros2_router: str = ""):
+    """The frames of `source`: a device, URL or file (perception/stream.py), or a ROS 2 image topic `ros2:/...`
+    through the router at `ros2_router` on the domain of ROS_DOMAIN_ID (fluidswarm/ros2/camera.py)."""
+    from fluidswarm.ros2.camera import Ros2FrameStream, is_ros2_source
+
+    if not is_ros2_source(source):
+        return FrameStream(source, params)
+    from fluidswarm.ros2.rmw import DEFAULT_ROUTER, domain_from_env
+
+    try:
+        domain = domain_from_env()
+    except ValueError as exc:
+        raise StreamError(f"camera {source}: {exc}") from None
+    return Ros2FrameStream(source, params, ros2_router or DEFAULT_ROUTER, domain)
+
+
 def run_camera(
     source: str,
     stream_params,
@@ -240,6 +256,7 @@ def run_camera(
     subject: str = "person",
     started: threading.Event | None = None,
     hand_over: Callable[[Imitation], None] | None = None,
+    ros2_router: str = "",
 ) -> None:
     """Observe `source` until `stop` or the end of a video file, publishing signed commands on `pub`
     (republished every `period` s by a side thread, so late joiners get one while a frame is being read).
@@ -266,6 +283,7 @@ def run_camera(
             log,
             started,
             hand_over,
+            ros2_router,
         )
     except StreamEnded as exc:
         if not getattr(exc, "is_file", False):
@@ -293,6 +311,7 @@ def _observe_stream(
     log,
     started,
     hand_over,
+    ros2_router="",
 ) -> None:
     current: list[bytes] = []
 
@@ -306,7 +325,7 @@ def _observe_stream(
     transform = None
     seq = 0
     observer = None
-    with FrameStream(source, stream_params) as stream:
+    with open_stream(source, stream_params, ros2_router) as stream:
 
         def frames():
             try:

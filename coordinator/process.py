@@ -73,6 +73,9 @@ def main(argv: list[str] | None = None) -> int:
         help="camera: what it watches (auto: decided from the first frames)",
     )
     ap.add_argument(
+        "--ros2-router", default="", help="camera ros2:TOPIC: the ROS 2 system's router (default tcp/localhost:7447)"
+    )
+    ap.add_argument(
         "--observations", help="camera: folder for latest.npz and events.jsonl (the launcher reads them at the end)"
     )
     ap.add_argument(
@@ -191,6 +194,7 @@ def _camera(args, secret: bytes) -> int:
                 observations,
                 subject=args.subject,
                 started=clock.started,
+                ros2_router=args.ros2_router,
                 hand_over=None if args.handover is None else functools.partial(handover.send, args.handover),
             )
     except (StreamError, handover.HandoverFailed) as exc:

@@ -112,6 +112,7 @@ class CameraImitation:
     kind: str = "camera"
     robot: RobotModel = POINT
     radio: RadioModel = PERFECT
+    ros2_router: str = ""  # a ROS 2 topic source (`ros2:/...`): the ROS 2 system's router (docs/ros2.md)
 
     def drive(self, run: Run) -> None:
         o = run.options
@@ -133,6 +134,7 @@ class CameraImitation:
                 str(tmp),
                 "--subject",
                 self.subject,
+                *(["--ros2-router", self.ros2_router] if self.ros2_router else []),
             ],
         )
         run.launcher.helpers.forget(coord)  # its end is the stream's end, handled here: not a lost helper
@@ -231,7 +233,18 @@ def imitate_camera(
     radio: RadioModel = PERFECT,
 ) -> RunRecord:
     """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
-    kind = CameraImitation(source, agents, steps, controller, fps, stall_seconds, subject, robot=robot, radio=radio)
+    kind = CameraImitation(
+        source,
+        agents,
+        steps,
+        controller,
+        fps,
+        stall_seconds,
+        subject,
+        robot=robot,
+        radio=radio,
+        ros2_router=ros2_router,
+    )
     with Run(
         kind,
         RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, ros2=ros2, commands=True, realtime=True),

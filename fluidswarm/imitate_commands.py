@@ -26,9 +26,10 @@ def register(sub) -> None:
     p.add_argument("input", nargs="?", help="image, folder of frames, or video (or --camera)")
     p.add_argument(
         "--camera",
-        metavar="DEVICE|URL|FILE",
+        metavar="DEVICE|URL|FILE|ros2:TOPIC",
         help="follow a person or a hand watched live: frames read as they come, a new command when the "
-        "gesture changes, the swarm paced to the wall clock",
+        "gesture changes, the swarm paced to the wall clock; ros2:/camera/image_raw: a ROS 2 camera topic "
+        "(sensor_msgs/Image or CompressedImage) through --ros2-router",
     )
     p.add_argument(
         "--subject",

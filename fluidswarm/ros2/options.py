@@ -33,8 +33,8 @@ def ros2_from_args(args) -> str:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if not getattr(args, "ros2", False):
-        if router != DEFAULT_ROUTER:
-            raise UserError("--ros2-router needs --ros2")
+        if router != DEFAULT_ROUTER and not str(getattr(args, "camera", None) or "").startswith("ros2:"):
+            raise UserError("--ros2-router needs --ros2 (or --camera ros2:TOPIC)")
         return ""
     print(f"ros2: node /fluidswarm on domain {domain} through {router}", file=sys.stderr, flush=True)
     return router
