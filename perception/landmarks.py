@@ -1,0 +1,249 @@
+"""A hand's 21 landmarks in one picture: MediaPipe's two-stage hand landmarker (palm detection, then the
+landmarks in a rotated crop round the palm), re-implemented on OpenCV's DNN module (perception/models.py).
+
+The stages and their constants are MediaPipe's own (mediapipe/modules/palm_detection/palm_detection_cpu.pbtxt,
+hand_landmark/palm_detection_detection_to_roi.pbtxt, hand_landmark_cpu.pbtxt of the 0.10.21 release whose
+model files are shipped): SSD anchors of the 192-px palm detector (4 layers, strides 8/16/16/16, scales
+0.1484375-0.75, one aspect ratio, fixed anchor size), sigmoid scores clipped at 100, weighted non-maximum
+suppression at IoU 0.3; the hand's box from the palm's: turned so the wrist -> middle-finger knuckle points
+up, shifted half its height toward the fingers, squared on its long side and scaled 2.6; the 224-px
+landmark model in that box, its hand-presence score and 21 (x, y, z) landmarks mapped back.
+
+Landmark numbering (MediaPipe's): 0 wrist; thumb 1-4; index 5-8; middle 9-12; ring 13-16; little 17-20
+(knuckle, two joints, tip). Coordinates in pixels of the picture given, x = column, y = row.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from perception.models import load_net
+
+PALM_MODEL = "palm_detection_lite.tflite"
+LANDMARK_MODEL = "hand_landmark_lite.tflite"
+PALM_SIZE = 192
+LANDMARK_SIZE = 224
+PALM_SCORE = 0.3  # below MediaPipe's 0.5: a palm in clutter scores lower; the presence score decides
+PRESENCE = 0.5  # MediaPipe's min_hand_presence_confidence default
+NMS_IOU = 0.3
+ROI_SCALE = 2.6
+ROI_SHIFT = -0.5  # of the palm box's height, toward the fingers
+MAX_HANDS = 2
+REFINE_POINTS = (0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18)
+REFINE_SCALE = 2.0
+REFINE_SHIFT = -0.1
+
+FINGERS = ((1, 2, 3, 4), (5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
+PALM = (0, 1, 5, 9, 13, 17)
+
+
+@dataclass(frozen=True)
+class HandLandmarks:
+    points: np.ndarray  # (21, 2) float32, pixels of the picture
+    depth: np.ndarray  # (21,) relative depth (MediaPipe's z, in the crop's pixel scale)
+    presence: float  # the landmark model's hand-presence score (0..1)
+    palm_score: float  # the palm detector's score (0..1)
+
+    def palm_length(self) -> float:
+        """Wrist to the middle finger's knuckle [px]: the hand's own length unit."""
+        return float(np.linalg.norm(self.points[9] - self.points[0]))
+
+
+def _anchors() -> np.ndarray:
+    """(2016, 2) anchor centres in [0, 1] (fixed anchor size: widths and heights are 1)."""
+    out = []
+    strides = (8, 16, 16, 16)
+    layer = 0
+    while layer < len(strides):
+        # layers with the same stride share one grid: two anchors per cell per layer (the scale and the
+        # interpolated one; a single aspect ratio)
+        last = layer
+        while last < len(strides) and strides[last] == strides[layer]:
+            last += 1
+        per_cell = 2 * (last - layer)
+        n = int(np.ceil(PALM_SIZE / strides[layer]))
+        ys, xs = np.mgrid[0:n, 0:n]
+        centres = np.stack([(xs.ravel() + 0.5) / n, (ys.ravel() + 0.5) / n], axis=1)
+        out.append(np.repeat(centres, per_cell, axis=0))
+        layer = last
+    return np.concatenate(out).astype(np.float32)
+
+
+ANCHORS = _anchors()
+
+
+def letterbox(image_rgb: np.ndarray, size: int) -> tuple[np.ndarray, float, float, float]:
+    """The picture scaled to fit a size x size square, centred, padded with black; (square, scale, pad_x,
+    pad_y): picture = (square - pad) / scale."""
+    h, w = image_rgb.shape[:2]
+    s = size / max(h, w)
+    nw, nh = max(1, round(w * s)), max(1, round(h * s))
+    px, py = (size - nw) // 2, (size - nh) // 2
+    out = np.zeros((size, size, 3), np.uint8)
+    out[py : py + nh, px : px + nw] = cv2.resize(image_rgb, (nw, nh), interpolation=cv2.INTER_AREA)
+    return out, s, float(px), float(py)
+
+
+def _weighted_nms(boxes: np.ndarray, scores: np.ndarray, extra: np.ndarray) -> list[tuple[float, np.ndarray]]:
+    """MediaPipe's WEIGHTED suppression: each kept detection is the score-weighted mean of those it
+    overlaps by IoU > NMS_IOU. boxes (n, 4) x0 y0 x1 y1; extra (n, k) values averaged the same way."""
+    order = np.argsort(-scores)
+    left = list(order)
+    kept = []
+    while left:
+        i = left[0]
+        x0 = np.maximum(boxes[i, 0], boxes[left, 0])
+        y0 = np.maximum(boxes[i, 1], boxes[left, 1])
+        x1 = np.minimum(boxes[i, 2], boxes[left, 2])
+        y1 = np.minimum(boxes[i, 3], boxes[left, 3])
+        inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+        area = (boxes[left, 2] - boxes[left, 0]) * (boxes[left, 3] - boxes[left, 1])
+        iou = inter / np.maximum(area + area[0] - inter, 1e-9)
+        group = [left[k] for k in np.nonzero(iou > NMS_IOU)[0]]
+        w = scores[group][:, None]
+        kept.append((float(scores[i]), (extra[group] * w).sum(0) / w.sum()))
+        left = [j for k, j in enumerate(left) if iou[k] <= NMS_IOU]
+    return kept
+
+
+def detect_palms(image_bgr: np.ndarray, min_score: float = PALM_SCORE) -> list[tuple[float, np.ndarray]]:
+    """Palms in the picture: [(score, (18,) box centre x, y, w, h, 7 keypoints (x, y)) in pixels], best first."""
+    rgb = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
+    square, s, px, py = letterbox(rgb, PALM_SIZE)
+    net = load_net(PALM_MODEL)
+    net.setInput(cv2.dnn.blobFromImage(square, 1.0 / 255.0))
+    raw, logits = net.forward(["Identity", "Identity_1"])
+    raw = raw.reshape(-1, 18).astype(np.float32)
+    scores = 1.0 / (1.0 + np.exp(-np.clip(logits.reshape(-1), -100.0, 100.0)))
+    good = np.nonzero(scores >= min_score)[0]
+    if len(good) == 0:
+        return []
+    r = raw[good] / PALM_SIZE
+    a = ANCHORS[good]
+    vals = r.copy()
+    vals[:, 0:2] += a  # box centre
+    vals[:, 4::2] += a[:, :1]  # keypoints x
+    vals[:, 5::2] += a[:, 1:]  # keypoints y
+    boxes = np.stack(
+        [
+            vals[:, 0] - vals[:, 2] / 2,
+            vals[:, 1] - vals[:, 3] / 2,
+            vals[:, 0] + vals[:, 2] / 2,
+            vals[:, 1] + vals[:, 3] / 2,
+        ],
+        axis=1,
+    )
+    out = []
+    for score, v in _weighted_nms(boxes, scores[good], vals)[:MAX_HANDS]:
+        v = v * PALM_SIZE
+        pix = v.copy()
+        pix[0] = (v[0] - px) / s
+        pix[1] = (v[1] - py) / s
+        pix[2:4] = v[2:4] / s
+        pix[4::2] = (v[4::2] - px) / s
+        pix[5::2] = (v[5::2] - py) / s
+        out.append((score, pix.astype(np.float32)))
+    return out
+
+
+def hand_box(palm: np.ndarray) -> tuple[float, float, float, float]:
+    """(centre x, centre y, side, rotation [rad]) of the landmark model's crop for one palm detection."""
+    cx, cy, w, h = (float(v) for v in palm[:4])
+    wrist, middle = palm[4:6], palm[8:10]
+    rotation = np.pi / 2 - np.arctan2(-(middle[1] - wrist[1]), middle[0] - wrist[0])
+    rotation = float((rotation + np.pi) % (2 * np.pi) - np.pi)
+    cx += -h * ROI_SHIFT * np.sin(rotation)
+    cy += h * ROI_SHIFT * np.cos(rotation)
+    return cx, cy, max(w, h) * ROI_SCALE, rotation
+
+
+def _crop_matrix(box: tuple[float, float, float, float], size: int) -> np.ndarray:
+    """Affine map picture -> size x size crop of the rotated square `box` (its 'up' is the crop's up)."""
+    cx, cy, side, rot = box
+    c, s = np.cos(rot), np.sin(rot)
+    k = size / side
+    # rotate the picture by -rot about the box centre, scale, move the centre to the crop's
+    return np.array(
+        [[k * c, k * s, size / 2 - k * (c * cx + s * cy)], [-k * s, k * c, size / 2 - k * (-s * cx + c * cy)]],
+        np.float32,
+    )
+
+
+def landmarks_in(image_bgr: np.ndarray, box: tuple[float, float, float, float]) -> HandLandmarks:
+    """The landmark model on the rotated square `box` of the picture."""
+    m = _crop_matrix(box, LANDMARK_SIZE)
+    rgb = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
+    crop = cv2.warpAffine(rgb, m, (LANDMARK_SIZE, LANDMARK_SIZE), flags=cv2.INTER_LINEAR, borderValue=(0, 0, 0))
+    net = load_net(LANDMARK_MODEL)
+    net.setInput(cv2.dnn.blobFromImage(crop, 1.0 / 255.0))
+    pts, flag = net.forward(["Identity", "Identity_1"])
+    xyz = pts.reshape(21, 3).astype(np.float32)
+    inv = cv2.invertAffineTransform(m)
+    xy = xyz[:, :2] @ inv[:, :2].T + inv[:, 2]
+    presence = float(np.asarray(flag).ravel()[0])
+    return HandLandmarks(xy.astype(np.float32), xyz[:, 2].copy(), presence, 0.0)
+
+
+def landmark_box(points: np.ndarray) -> tuple[float, float, float, float]:
+    """MediaPipe's box for the next landmark pass from a hand's landmarks (hand_landmark_landmarks_to_roi):
+    turned so the wrist -> middle knuckle points up, the box of the palm's and fingers' lower landmarks in
+    that frame, shifted 0.1 of its height toward the fingers, squared on its long side, scaled 2."""
+    sub = points[list(REFINE_POINTS)]
+    d = points[9] - points[0]
+    rotation = float((np.pi / 2 - np.arctan2(-d[1], d[0]) + np.pi) % (2 * np.pi) - np.pi)
+    c, s = np.cos(rotation), np.sin(rotation)
+    centre = (sub.min(0) + sub.max(0)) / 2
+    rel = sub - centre
+    # the landmarks in the box's own frame (its up is the hand's)
+    rx = rel[:, 0] * c + rel[:, 1] * s
+    ry = -rel[:, 0] * s + rel[:, 1] * c
+    w, h = float(rx.max() - rx.min()), float(ry.max() - ry.min())
+    mid = np.array([(rx.max() + rx.min()) / 2, (ry.max() + ry.min()) / 2])
+    cx = centre[0] + mid[0] * c - mid[1] * s
+    cy = centre[1] + mid[0] * s + mid[1] * c
+    cx += -h * REFINE_SHIFT * np.sin(rotation)
+    cy += h * REFINE_SHIFT * np.cos(rotation)
+    return float(cx), float(cy), max(w, h) * REFINE_SCALE, rotation
+
+
+def find_landmarks(image_bgr: np.ndarray, min_presence: float = PRESENCE) -> list[HandLandmarks]:
+    """The hands in the picture (at most MAX_HANDS), best palm first; [] when none. Each hand's landmarks
+    are read twice: in the palm's box, then in the box those landmarks give (MediaPipe's tracking box,
+    tighter and turned by the whole hand; on one frame it does what the tracker does from frame to frame)."""
+    hands: list[HandLandmarks] = []
+    for x0, y0, view in palm_views(image_bgr):
+        for score, palm in detect_palms(view):
+            palm = palm.copy()  # the view's pixels -> the picture's (centre and keypoints; not the size)
+            palm[0], palm[1] = palm[0] + x0, palm[1] + y0
+            palm[4::2] += x0
+            palm[5::2] += y0
+            lm = landmarks_in(image_bgr, hand_box(palm))
+            if lm.presence >= min_presence:
+                again = landmarks_in(image_bgr, landmark_box(lm.points))
+                lm = again if again.presence >= min_presence else lm
+            if lm.presence >= min_presence:
+                hands.append(HandLandmarks(lm.points, lm.depth, lm.presence, score))
+        if hands:
+            break
+    return hands
+
+
+def palm_views(image_bgr: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+    """(x0, y0, view) to look for palms in, in turn until one holds a hand: the whole picture (letterboxed,
+    a 640 x 480 frame's palm shrinks to 0.3 of its size), then the two squares at the ends of its longer
+    side (0.4: a 20-px palm of the whole is 27 px there; the detector's smallest anchor is 28 px). On 100
+    composites of five cluttered families: 65 palms found in the whole picture at MediaPipe's score 0.5,
+    89 with the squares at 0.3 (10 of 50 hand-free frames gave a palm; the landmark model's presence score
+    refuses what is no hand)."""
+    h, w = image_bgr.shape[:2]
+    views = [(0, 0, image_bgr)]
+    side = min(h, w)
+    if max(h, w) > 1.2 * side:
+        if w > h:
+            views += [(0, 0, image_bgr[:, :side]), (w - side, 0, image_bgr[:, w - side :])]
+        else:
+            views += [(0, 0, image_bgr[:side]), (0, h - side, image_bgr[h - side :])]
+    return views
