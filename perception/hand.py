@@ -1,8 +1,11 @@
 """A hand in one picture (a camera frame): its silhouette and recognised class, or why there is none.
 
 Each frame is read on its own -- a hand does not stand still like a person's torso, so nothing is assumed
-of the frames before. The picture must show what the shared photographs show: a hand in front of a plain,
-bright background. `find_hand` says "no hand found: ..." (`NoHandError`) when
+of the frames before. Two readings, in turn: the plain one (`plain_hand`, below), for what the shared
+photographs show -- a hand in front of a plain, bright background; then, for a picture it refuses, the
+learned one (perception/hand_detector.py: MediaPipe's landmarks, a GrabCut silhouette; issue 50) for a
+hand in front of anything else. A frame that is no 8-bit picture, or smaller than MIN_SIDE, is one line
+(`check_frame`). The plain reading says "no hand found: ..." (`NoHandError`) when
 
 - nothing stands out of the background (an empty picture: `hand_mask` finds no foreground),
 - what stands out is too small a part of the picture (a hand leaving it),
@@ -59,6 +62,7 @@ SHIFT_IOU = 0.85
 STILL = 0.01  # of the picture: a box whose edges all move less than this between two frames stands still
 STILL_STEPS = 2  # consecutive still steps that end a leaving
 BORDERS = ("bottom", "top", "left", "right")
+MIN_SIDE = 32  # px: a smaller frame holds no hand either reading can see
 
 
 class NoHandError(SegmentationError):
@@ -78,8 +82,49 @@ class Hand:
     distance: float  # from the hand space (HAND_SPACE_LIMIT and below: a hand)
 
 
-def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> Hand:
-    """The hand in `frame_bgr` with its class ("best" classifier). Raises NoHandError."""
+def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier, learned: bool = True) -> Hand:
+    """The hand in `frame_bgr` with its class ("best" classifier). Raises NoHandError.
+
+    A plain, bright background is read as before (`plain_hand`: the classifier's own segmentation, its
+    figures unchanged); a picture it refuses goes to the learned hand detector (`learned_hand`: MediaPipe's
+    landmarks, a GrabCut silhouette, the hand on a plain background for the classifier), unless `learned`
+    is False. The message of a refusal by both starts with the plain reading's."""
+    frame_bgr = check_frame(frame_bgr)
+    try:
+        return plain_hand(frame_bgr, classifier)
+    except NoHandError as exc:
+        if not learned:
+            raise
+        plain = exc
+    from perception.hand_detector import learned_hand  # the DNN models load on first use
+
+    found = learned_hand(frame_bgr, classifier)
+    if isinstance(found, str):
+        raise NoHandError(f"{plain}; {found}", plain.mask)
+    return Hand(*found)
+
+
+def check_frame(frame: np.ndarray) -> np.ndarray:
+    """The frame as 8-bit BGR; one line naming what is wrong (NoHandError) for anything else."""
+    if not isinstance(frame, np.ndarray) or frame.size == 0:
+        raise NoHandError("no hand found: the frame is empty")
+    if frame.dtype != np.uint8:
+        raise NoHandError(f"no hand found: the frame's pixels are {frame.dtype}, 8-bit (uint8) expected")
+    if frame.ndim == 2 or (frame.ndim == 3 and frame.shape[2] == 1):
+        return cv2.cvtColor(frame.reshape(frame.shape[:2]), cv2.COLOR_GRAY2BGR)
+    if frame.ndim == 3 and frame.shape[2] == 4:
+        return cv2.cvtColor(frame, cv2.COLOR_BGRA2BGR)
+    if frame.ndim != 3 or frame.shape[2] != 3:
+        raise NoHandError(f"no hand found: a frame of shape {frame.shape} is no picture (rows x columns x 3)")
+    if min(frame.shape[:2]) < MIN_SIDE:
+        raise NoHandError(
+            f"no hand found: a {frame.shape[1]} x {frame.shape[0]} frame is too small (at least {MIN_SIDE} px a side)"
+        )
+    return frame
+
+
+def plain_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> Hand:
+    """The hand in front of a plain, bright background (the shared photographs'). Raises NoHandError."""
     try:
         mask = hand_mask(frame_bgr)
     except SegmentationError as exc:

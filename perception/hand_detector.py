@@ -1,0 +1,69 @@
+"""A hand in front of any background (a room, clutter, a skin-coloured wall): the learned reading of
+`find_hand` (perception/hand.py), for the pictures its plain-background reading refuses.
+
+MediaPipe's landmarks (perception/landmarks.py) say where the hand is and whether there is one (the palm
+detector's score and the landmark model's hand-presence score, both at MediaPipe's defaults); GrabCut seeded
+by them cuts its silhouette (perception/hand_silhouette.py); the classifier, trained on the shared
+photographs (a hand in front of a plain background), is given the silhouette in front of such a background
+(`clean_crop`), and must place it within the hand space as before. What the rest of the pipeline consumes is
+unchanged: `Hand.mask` is the silhouette in the frame's own pixels.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from perception.eigen import EigenClassifier
+from perception.features import hand_hog
+from perception.hand_silhouette import clean_crop, silhouette
+from perception.landmarks import find_landmarks
+
+# Of the hand's box (the landmarks' bounding box): a silhouette covering less of it is GrabCut losing the
+# hand (a hand's silhouette covers 35-70 % of its landmarks' box; fingers spread: the least).
+MIN_BOX_FILL = 0.15
+# The hand space's limit for a silhouette the landmarks vouch for: HAND_SPACE_LIMIT (0.30) was set to
+# refuse colour segmentations that are no hand; here the landmark model already said "hand", and on
+# cluttered composites (200, 5 families) the hands at 0.30-0.45 were named as often as those below 0.30.
+LEARNED_SPACE_LIMIT = 0.45
+MIN_CROP_SHARE = 0.05  # of the classifier's crop: less is GrabCut keeping a sliver (find_hand's MIN_HAND_SHARE)
+MIN_HAND_PX = 24  # the palm length [px] below which a hand is too small to classify (a 100-px photo's: 30-45)
+
+
+class LearnedHand(NamedTuple):
+    """What perception.hand.Hand holds (that module builds it: it imports this one)."""
+
+    mask: np.ndarray
+    label: str
+    confidence: float
+    distance: float
+
+
+def learned_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> LearnedHand | str:
+    """The hand seen by the learned detector, or why none (a reason to append to the plain reading's)."""
+    hands = find_landmarks(frame_bgr)
+    if not hands:
+        return "the hand detector sees no hand"
+    lm = hands[0]
+    if lm.palm_length() < MIN_HAND_PX:
+        length = lm.palm_length()
+        return f"the hand detector's hand is too small ({length:.0f} px wrist to knuckles, at least {MIN_HAND_PX})"
+    mask = silhouette(frame_bgr, lm)
+    x0, y0 = lm.points.min(0)
+    x1, y1 = lm.points.max(0)
+    box = max(1.0, float((x1 - x0) * (y1 - y0)))
+    if mask.sum() < MIN_BOX_FILL * box:
+        return "the hand detector's hand has no silhouette"
+    pic, sil = clean_crop(frame_bgr, mask)
+    if sil.mean() < MIN_CROP_SHARE:
+        return "the hand detector's silhouette is too small"
+    x = hand_hog([pic], [sil])
+    distance = float(classifier.hand_space_distance(x)[0])
+    if distance > LEARNED_SPACE_LIMIT:
+        return (
+            f"the hand detector's silhouette is not a hand's "
+            f"(distance from the hand space {distance:.2f} > {LEARNED_SPACE_LIMIT})"
+        )
+    label, conf = classifier.predict_features(x)
+    return LearnedHand(mask, str(label[0]), float(conf[0]), distance)

@@ -1,0 +1,172 @@
+"""Hands and persons in an ordinary room (issue 50): the shipped MediaPipe models on OpenCV's DNN module,
+the GrabCut silhouette from the landmarks, `find_hand`'s learned reading behind its plain one, the person
+from one frame; real shared photographs and Weizmann frames pasted into 640 x 480 backgrounds; bad input
+(a missing or corrupt model file, a frame of the wrong kind) is one line."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from perception import composites as cm
+from perception.dataset import is_test_file
+from perception.eigen import default_model
+from perception.features import to_work_size
+from perception.hand import NoHandError, find_hand
+from perception.io import load_frames, load_image
+from perception.landmarks import FINGERS, find_landmarks
+from perception.models import SHA256, ModelError, load_net
+from perception.segmentation import NoPersonError, hand_mask, person_regions
+from perception.selfie import person_silhouette
+
+
+@pytest.fixture(scope="module")
+def clf():
+    return default_model()
+
+
+def held_out(shared_hands, cls: int, k: int = 0) -> np.ndarray:
+    """The k-th photograph of class `cls` in the documented split's test part, at the set's 100 px."""
+    files = sorted(p for p in (shared_hands / str(cls)).iterdir() if is_test_file(p.name))
+    return to_work_size(load_image(files[k]))
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+def composite(photo: np.ndarray, family: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    frame, truth = cm.paste_hand(cm.background_maker(family)(rng), photo, hand_mask(photo), rng)
+    return cm.degrade(frame, rng, 0.5), truth
+
+
+def test_the_landmarks_of_a_raised_five_lie_on_its_fingers(shared_hands):
+    photo = held_out(shared_hands, 5)
+    frame, truth = composite(photo, "plain", 3)
+    hands = find_landmarks(frame)
+    assert len(hands) == 1 and hands[0].presence > 0.9
+    pts = hands[0].points
+    inside = truth[np.clip(pts[:, 1].astype(int), 0, 479), np.clip(pts[:, 0].astype(int), 0, 639)]
+    assert inside.mean() >= 0.9, inside  # MediaPipe's landmarks lie on the hand
+    wrist_y = pts[0, 1]
+    assert all(pts[f[-1], 1] < wrist_y - 0.5 * hands[0].palm_length() for f in FINGERS[1:])  # tips above the wrist
+
+
+def test_hands_in_front_of_clutter_are_found_with_their_silhouettes_and_classes(shared_hands, clf):
+    """12 composites (three cluttered families, four held-out photographs): the plain reading refuses every
+    one, as before; the learned one finds most, cuts them out and names them (bench-perception: the
+    figures over 140)."""
+    found, ious, right = 0, [], 0
+    for family in ("skin", "stripes", "noise"):
+        for cls in (0, 1, 2, 5):
+            frame, truth = composite(held_out(shared_hands, cls), family, cls)
+            with pytest.raises(NoHandError, match="^no hand found: "):
+                find_hand(frame, clf, learned=False)
+            try:
+                hand = find_hand(frame, clf)
+            except NoHandError:
+                continue
+            assert hand.mask.shape == frame.shape[:2]
+            found += 1
+            ious.append(iou(hand.mask, truth))
+            right += hand.label == str(cls)
+    assert found >= 10, found
+    assert np.mean(ious) >= 0.8 and min(ious) >= 0.6, ious
+    assert right >= 0.75 * found, (right, found)
+
+
+DRIFTS = (  # gain, gamma, white balance (B, G, R gains)
+    (1.0, 1.0, (1.0, 1.0, 1.0)),
+    (0.6, 1.0, (1.0, 1.0, 1.0)),
+    (1.3, 0.8, (1.0, 1.0, 1.0)),
+    (1.0, 1.4, (1.1, 1.0, 0.9)),
+    (0.8, 1.0, (0.9, 1.0, 1.12)),
+    (0.7, 1.2, (1.0, 0.95, 1.05)),
+)
+
+
+def drifted(frame: np.ndarray, gain: float, gamma: float, balance: tuple[float, float, float]) -> np.ndarray:
+    return np.clip(255 * ((frame / 255.0 * gain * np.array(balance)) ** gamma), 0, 255).astype(np.uint8)
+
+
+def test_light_drift_rarely_changes_the_class(shared_hands, clf):
+    """Brightness, gamma and white balance drifting over a held hand (8 hands, 6 lights each): a frame
+    where it is not found commands nothing (the swarm keeps its command); where it is found, it is its
+    usual class. Not 'never' (issue 50's target): a small hand whose landmarks the skin-coloured wall
+    confuses is named 7, 1 or 8 as the light changes (docs/perception.md)."""
+    steady, seen = 0, 0  # frames
+    for family in ("skin", "stripes"):
+        for cls in (0, 1, 2, 5):
+            frame, _ = composite(held_out(shared_hands, cls), family, 20 + cls)
+            labels = []
+            for drift in DRIFTS:
+                try:
+                    labels.append(find_hand(drifted(frame, *drift), clf).label)
+                except NoHandError as exc:
+                    assert "the hand detector" in str(exc)
+            if labels:
+                seen += len(labels)
+                steady += max(labels.count(x) for x in labels)  # frames showing the hand's usual class
+    print(f"frames found {seen} of 48, at their hand's usual class {steady}")
+    assert seen >= 30 and steady >= 0.75 * seen, (steady, seen)  # measured: 35 found, 28 at the usual class
+
+
+def test_rooms_without_a_hand_are_never_a_hand(clf):
+    rng = np.random.default_rng(11)
+    for family in ("skin", "wood", "stripes", "noise", "plain"):
+        for _ in range(2):
+            frame = cm.degrade(cm.background_maker(family)(rng), rng)
+            with pytest.raises(NoHandError, match="^no hand found: .*the hand detector sees no hand"):
+                find_hand(frame, clf)
+
+
+def test_a_person_is_found_from_one_frame_in_front_of_clutter(weizmann):
+    frames = load_frames(weizmann / "wave2" / "person1.png")
+    only = [5, 25, 45]
+    regions = person_regions(frames, only=only)
+    rng = np.random.default_rng(5)
+    ious = []
+    for k, r in zip(only, regions, strict=True):
+        for family in ("stripes", "skin", "wood"):
+            frame, truth = cm.paste_person(cm.background_maker(family)(rng), frames[k], r.silhouette, rng)
+            ious.append(iou(person_silhouette(cm.degrade(frame, rng, 0.5)), truth))
+    assert np.mean(ious) >= 0.8 and min(ious) >= 0.5, ious
+    with pytest.raises(NoPersonError, match="^no person found: "):
+        person_silhouette(cm.background_maker("noise")(rng))
+
+
+def test_a_missing_or_corrupt_model_file_is_one_line_naming_it(tmp_path):
+    name = "hand_landmark_lite.tflite"
+    with pytest.raises(ModelError) as exc:
+        load_net(name, tmp_path)
+    assert str(tmp_path / name) in str(exc.value) and "\n" not in str(exc.value)
+    shutil.copy(cm.__file__, tmp_path / name)  # any other bytes
+    with pytest.raises(ModelError, match="corrupt") as exc:
+        load_net(name, tmp_path)
+    assert "\n" not in str(exc.value)
+    unknown = tmp_path / "other.tflite"
+    unknown.write_bytes(b"TFL3 not a model")
+    with pytest.raises(ModelError, match="does not load"):
+        load_net("other.tflite", tmp_path)
+    shipped = Path(cm.__file__).parent / "data" / "models"
+    assert set(SHA256) == {p.name for p in shipped.glob("*.tflite")}
+
+
+def test_a_frame_of_the_wrong_kind_is_one_line(shared_hands, clf):
+    frame, _ = composite(held_out(shared_hands, 5), "skin", 1)
+    for bad, why in (
+        (frame.astype(np.uint16) * 256, "uint16"),
+        (frame[:20, :20], "too small"),
+        (frame[..., :2], "no picture"),
+        (np.zeros((0, 0, 3), np.uint8), "empty"),
+    ):
+        with pytest.raises(NoHandError) as exc:
+            find_hand(bad, clf)
+        assert why in str(exc.value) and "\n" not in str(exc.value)
+    grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)  # one channel: a grey camera's frame is read as such
+    assert find_hand(grey, clf).mask.shape == grey.shape
