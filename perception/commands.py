@@ -39,6 +39,17 @@ def register(sub) -> None:
     p.add_argument("--out", default="out/perceive.png", help="annotated picture / contact sheet (PNG)")
     p.add_argument("--model", help="eigen classifier .npz (default: the shipped model)")
     p.set_defaults(func=_perceive)
+    p = sub.add_parser(
+        "bench-perception",
+        help="hands and persons pasted into ordinary rooms: detection, false positives, mask IoU, accuracy, ms",
+    )
+    p.add_argument("--hands", type=int, default=20, help="hand composites per background family (default 20)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--families", help="comma-separated background families (default: all)")
+    p.add_argument(
+        "--held-out", action="store_true", help="the photographs and Weizmann clips kept apart while building"
+    )
+    p.set_defaults(func=_bench)
 
 
 def _user_error(path, exc: Exception) -> UserError:
@@ -150,3 +161,16 @@ def _perceive(args) -> int:
         print(line)
     print(f"png={out}")
     return 0
+
+
+def _bench(args) -> int:
+    from perception.bench_room import run
+    from perception.composites import FAMILIES
+
+    fams = tuple(f.strip() for f in args.families.split(",") if f.strip()) if args.families else None
+    bad = [f for f in fams or () if f not in FAMILIES]
+    if bad:
+        raise UserError(f"--families: unknown {', '.join(bad)} (known: {', '.join(FAMILIES)})")
+    if args.hands < 1:
+        raise UserError(f"--hands: at least 1, got {args.hands}")
+    return run(args.hands, args.seed, fams, args.held_out)
