@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from perception.segmentation import hand_mask
+
 W, H = 640, 480
 FAMILIES = ("plain", "photo", "wood", "stripes", "noise", "skin", "weizmann")
 # scikit-image's photographs that ship inside its wheel (skimage.data, no download): colour ones and a few
@@ -160,7 +162,18 @@ def _feather(mask: np.ndarray, sigma: float) -> np.ndarray:
 def paste_hand(
     bg: np.ndarray, photo: np.ndarray, mask: np.ndarray, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(frame, true mask): the photograph's hand (`mask`) 20-50 % of the frame's height, wrist on the bottom."""
+    """(frame, true mask): the photograph's hand (`mask`) 20-50 % of the frame's height, wrist on the bottom,
+    at a random column."""
+    share = rng.uniform(0.2, 0.5)
+    ys, xs = np.nonzero(mask)
+    width = (xs.max() - xs.min() + 1) * share * H / (ys.max() - ys.min() + 1)
+    return _place(bg, photo, mask, int(rng.integers(0, max(1, W - int(width)))), share, rng)
+
+
+def _place(
+    bg: np.ndarray, photo: np.ndarray, mask: np.ndarray, px: int, share: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The hand `share` of the frame's height, its left edge at column `px`, wrist on the bottom edge."""
     # the photograph's bright wall round the hand painted over with the hand's own edge colours, so the
     # feathered edge blends hand into room, not a white halo
     grown = np.asarray(cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8))) > 0
@@ -168,15 +181,13 @@ def paste_hand(
     photo = cv2.inpaint(photo, ring, 3, cv2.INPAINT_TELEA)
     ys, xs = np.nonzero(mask)
     y0, y1, x0, x1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
-    share = rng.uniform(0.2, 0.5)
     s = share * H / (y1 - y0)
     src = cv2.resize(photo[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC)
     m = cv2.resize(mask[y0:y1, x0:x1].astype(np.uint8), (src.shape[1], src.shape[0]), interpolation=cv2.INTER_NEAREST)
     alpha = _feather(m.astype(bool), rng.uniform(0.8, 2.0))
     # the wrist (cut by the photograph's bottom edge) stays solid to the frame's edge
     alpha[-3:] = np.maximum(alpha[-3:], m[-3:].astype(np.float32))
-    px = int(rng.integers(0, max(1, W - src.shape[1])))
-    return _paste(bg, src, alpha, px, H - src.shape[0])
+    return _paste(bg, src, alpha, min(max(0, px), max(0, W - src.shape[1])), H - src.shape[0])
 
 
 def paste_person(
@@ -212,3 +223,27 @@ def degrade(frame: np.ndarray, rng: np.random.Generator, strength: float = 1.0) 
     ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, q])
     decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR) if ok else None
     return img if decoded is None else np.asarray(decoded)
+
+
+def room_video(
+    photos: list[np.ndarray], family: str, rng: np.random.Generator, seconds: float = 6.0, fps: float = 8.0
+) -> list[np.ndarray]:
+    """Frames of a camera held on one room while each photograph's hand is shown in turn (`seconds` each):
+    the hand at 40 % of the height, wrist on the bottom edge, swaying a few pixels; the light drifting
+    (brightness and white balance) slowly over the whole video; each frame with sensor noise and JPEG."""
+    room = background_maker(family)(rng)
+    n = int(round(seconds * fps))
+    total = n * len(photos)
+    frames = []
+    x = int(rng.integers(W // 4, W // 2))
+    for k, photo in enumerate(photos):
+        mask = hand_mask(photo)
+        for j in range(n):
+            t = (k * n + j) / max(total - 1, 1)
+            frame, _ = _place(room, photo, mask, x + int(round(6 * np.sin(j / 3.0))), 0.4, rng)
+            light = (0.85 + 0.3 * t) * np.array([1.0 + 0.08 * np.sin(3 * t), 1.0, 1.0 - 0.08 * np.sin(3 * t)])
+            f = np.clip(frame.astype(np.float32) * light + rng.normal(0, 2.5, frame.shape), 0, 255).astype(np.uint8)
+            ok, buf = cv2.imencode(".jpg", f, [cv2.IMWRITE_JPEG_QUALITY, 80])
+            decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR) if ok else None
+            frames.append(f if decoded is None else np.asarray(decoded))
+    return frames
