@@ -11,7 +11,7 @@ from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_opti
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
@@ -84,7 +84,7 @@ def _imitate(args) -> int:
     hosts = workers_options(args)
     if hosts and args.camera is not None:
         raise UserError("--workers: a file only (--camera runs on one host)")
-    live, ros2 = live_from_args(args), ros2_from_args(args)
+    live, ros2, bag = live_from_args(args), ros2_from_args(args), ros2_bag_from_args(args)
     robot = robot_model(args.robot)
     radio = radio_model(radio_options(args))
     if args.camera is not None:
@@ -124,6 +124,7 @@ def _imitate(args) -> int:
             realtime=args.realtime,
             **hosts,
         )
+    write_run_bag(record.mcap, bag)
     if args.json:
         print_json(record)
     else:

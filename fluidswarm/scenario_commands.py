@@ -15,7 +15,7 @@ from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_m
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
-from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -283,7 +283,8 @@ def print_summary(s: RunRecord) -> None:
     print(f"passed={'true' if s.passed else 'false'}" + ("" if s.passed else "  (" + "; ".join(s.why) + ")"))
 
 
-def _report(args, record: RunRecord) -> int:
+def _report(args, record: RunRecord, bag: Path | None = None) -> int:
+    write_run_bag(record.mcap, bag)
     if args.json:
         print_json(record)
     else:
@@ -309,7 +310,7 @@ def _run(args) -> int:
         )
     sc = with_radio_options(sc, args)
     out = Path(args.out or f"out/{sc.name}")
-    live, hosts = live_from_args(args), workers_options(args)
+    live, hosts, bag = live_from_args(args), workers_options(args), ros2_bag_from_args(args)
     if hosts:
         # Failures are injected by one launcher on its own agents, and the baseline would need the workers again.
         if sc.experiment != "imitate":
@@ -328,6 +329,7 @@ def _run(args) -> int:
             hosts=hosts,
             ros2=ros2_from_args(args),
         ),
+        bag,
     )
 
 
@@ -346,7 +348,9 @@ def _demo(args) -> int:
     if args.robot is not None:
         sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
     sc = with_radio_options(sc, args)
+    bag = ros2_bag_from_args(args)
     return _report(
         args,
         execute(sc, None, Path(args.out), live=live_from_args(args), realtime=args.realtime, ros2=ros2_from_args(args)),
+        bag,
     )

@@ -13,7 +13,7 @@ from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_m
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2.options import add_ros2_arguments, ros2_from_args
+from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 
 
 def register(sub) -> None:
@@ -230,6 +230,9 @@ def _launch(args) -> int:
     options.ros2 = ros2_from_args(args)
     if options.ros2 and not args.record:
         raise UserError("--ros2 needs --record FILE.mcap (the recorder process publishes the run)")
+    if args.ros2_bag and not args.record:
+        raise UserError("--ros2-bag needs --record FILE.mcap (the bag is made from it)")
+    bag = ros2_bag_from_args(args)
     options.progress = args.progress
     if args.share and not args.run:
         raise UserError("--share needs --run: every host of a split run must use the same run name")
@@ -257,6 +260,7 @@ def _launch(args) -> int:
         )
         kind.drive(run)
     r = run.record
+    write_run_bag(r.mcap, bag)
     if args.json:
         print_json(r)
         return 0

@@ -164,21 +164,30 @@ def test_a_bag_directory_that_exists_or_cannot_be_written_is_one_line(tmp_path, 
         assert code != 0 and stdout == ""
         assert stderr.count("\n") == 1 and why in stderr and str(out) in stderr, stderr
     assert not (tmp_path / "no").exists()
+    # on a run command: said before anything starts
+    assert main(["imitate", str(V_SIGN), "--out", str(tmp_path / "o"), "--ros2-bag", str(tmp_path / "taken")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "it exists" in err and not (tmp_path / "o").exists(), err
 
 
 @pytest.mark.swarm
 def test_the_bag_of_a_60_agent_unicycle_imitation_equals_its_mcap(tmp_path, capsys):
+    """The bag written by the run itself (`imitate --ros2-bag DIR`), and again by `replay --ros2-bag`: the same."""
     done = subprocess.run(
         FLUIDSWARM
         + ["imitate", str(V_SIGN), "--agents", "60", "--steps", "300", "--robot", "unicycle", "--out", str(tmp_path)]
-        + ["--json"],
+        + ["--json", "--ros2-bag", str(tmp_path / "bag")],
         capture_output=True,
         text=True,
         timeout=600,
     )
     assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout)["finished"] == 60
+    assert f"ros2: wrote the bag {tmp_path / 'bag'}" in done.stderr
     mcap = tmp_path / "digit2_IMG_1140.mcap"
-    code, _, err = _bag(mcap, tmp_path / "bag", capsys)
-    assert code == 0, err
     check_bag(mcap, tmp_path / "bag")
+    code, _, err = _bag(mcap, tmp_path / "again", capsys)
+    assert code == 0, err
+    again = (tmp_path / "again" / "metadata.yaml").read_text().replace("again_0.mcap", "bag_0.mcap")
+    assert again == (tmp_path / "bag" / "metadata.yaml").read_text()
     assert len(load_run(mcap).frames) >= 250

@@ -196,3 +196,50 @@ def test_tokens_split_by_the_peer_equal_the_products_own():
     assert unpack_attachment(rmw.attachment(7, 99, e.gid)) == (7, 99, e.gid)
     assert rmw.parse_attachment(rmw.attachment(7, 99, e.gid)) == (7, 99, e.gid)
     assert rmw.parse_qos(":1:,1:,:,:,,") == rmw.Qos(durability=rmw.TRANSIENT_LOCAL, depth=1)
+
+
+class _Capture:
+    def __init__(self):
+        self.sent: list[bytes] = []
+
+    def put(self, cdr: bytes) -> None:
+        self.sent.append(cdr)
+
+
+def test_a_unicycles_yaw_is_its_heading_and_a_points_its_motion():
+    """The bridge's step (no session): PoseArray and /tf orientations from the state rows' heading (unicycles)
+    or their velocity (others), in id order."""
+    from agent.sph.particle import HEADING, SPEED, VX, VY, X, Y
+    from fluidswarm.ros2 import messages as m
+    from fluidswarm.ros2.bridge import Bridge
+
+    vals = np.zeros((3, SPEED + 1))
+    vals[:, X], vals[:, Y] = [0.5, 0.1, 0.3], [1.0, 1.1, 1.2]
+    vals[:, VX], vals[:, VY] = [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]
+    vals[:, HEADING] = [0.3, -2.0, 1.0]
+    ids = np.array([7, 2, 5])
+    for unicycle, want in ((True, [-2.0, 1.0, 0.3]), (False, [0.0, 0.0, np.pi / 2])):
+        pubs = {t.name: _Capture() for t in m.TOPICS}
+        Bridge("tcp/127.0.0.1:1", 0, unicycle, print)._publish(pubs, ("states", 4, 0.08, ids, vals))
+        poses = decode(pubs[m.POSES].sent[0], "geometry_msgs/msg/PoseArray").poses
+        yaw = [2 * np.arctan2(p.orientation.z, p.orientation.w) for p in poses]
+        assert np.allclose(yaw, want) and [p.position.x for p in poses] == [0.1, 0.3, 0.5]
+        tf = decode(pubs[m.TF].sent[0], "tf2_msgs/msg/TFMessage").transforms
+        assert [t.child_frame_id for t in tf] == ["robot_2/base_link", "robot_5/base_link", "robot_7/base_link"]
+        assert decode(pubs[m.CLOCK].sent[0], "rosgraph_msgs/msg/Clock").clock.nanosec == 80_000_000
+
+
+def test_bad_ros2_options_are_one_line(capsys, monkeypatch):
+    from fluidswarm.cli import main
+
+    for argv, env, why in (
+        (["--ros2", "--ros2-router", "localhost:7447"], {}, "is not a zenoh endpoint"),
+        (["--ros2"], {"ROS_DOMAIN_ID": "300"}, "ROS_DOMAIN_ID='300' is not a ROS 2 domain id"),
+        (["--ros2-router", "tcp/h:1"], {}, "--ros2-router needs --ros2"),
+    ):
+        for k, v in env.items():
+            monkeypatch.setenv(k, v)
+        assert main(["imitate", str(V_SIGN), *argv]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and why in err, err
+        monkeypatch.delenv("ROS_DOMAIN_ID", raising=False)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from agent.protocol.errors import UserError
 from fluidswarm.ros2.rmw import DEFAULT_ROUTER, check_endpoint, domain_from_env
@@ -21,6 +22,34 @@ def add_ros2_arguments(parser) -> None:
         metavar="ENDPOINT",
         help=f"the ROS 2 system's Zenoh router (default {DEFAULT_ROUTER}, rmw_zenohd's)",
     )
+    parser.add_argument(
+        "--ros2-bag",
+        metavar="DIR",
+        help="once the run ends, also write its MCAP as the new rosbag2 directory DIR (as replay --ros2-bag)",
+    )
+
+
+def ros2_bag_from_args(args) -> Path | None:
+    """`--ros2-bag DIR`, checked before the run starts (one line if it exists or cannot be made)."""
+    if not getattr(args, "ros2_bag", None):
+        return None
+    from fluidswarm.ros2.bag import check_bag_dir
+
+    check_bag_dir(Path(args.ros2_bag))
+    return Path(args.ros2_bag)
+
+
+def write_run_bag(mcap: str | None, bag: Path | None) -> None:
+    """The run's MCAP as the bag `bag` (after the run); says where on stderr (stdout holds the run's record)."""
+    if bag is None:
+        return
+    if not mcap or not Path(mcap).exists():
+        raise UserError(f"--ros2-bag {bag}: the run wrote no MCAP to convert")
+    from fluidswarm.recording.reader import load_run
+    from fluidswarm.ros2.bag import write_bag
+
+    summary = write_bag(load_run(mcap), bag)
+    print(f"ros2: wrote the bag {bag} ({sum(summary.counts.values())} messages)", file=sys.stderr, flush=True)
 
 
 def ros2_from_args(args) -> str:
