@@ -25,7 +25,10 @@ from coordinator.control.geometry import ImageToDomain
 from fluidswarm.ros2 import messages as m
 from fluidswarm.ros2.node import Node
 
-QUEUE = 256  # items the recorder may be ahead of the bridge (~10 s of steps at N = 300) before they are dropped
+# How far the recorder may be ahead of the bridge before what it hands over is dropped (counted): steps (one
+# item a step, N rows: the memory) and everything (events are many and small: 300 `started` at a run's start)
+STEPS_AHEAD = 64
+QUEUE = 4096
 OPEN_SECONDS = 5.0  # s to reach the ROS 2 router at start
 WATCH_SECONDS = 1.0  # s between two looks at the router connection
 _STOP = ("stop",)
@@ -43,7 +46,8 @@ class Bridge:
         self.published = 0
         self._target: list[np.ndarray] = []
         self._obstacles: list[np.ndarray] = []
-        self._t = 0.0
+        # steps handed over and steps taken off the queue: each counted by one thread only (no lock needed)
+        self._handed = self._taken = 0
         self._thread = threading.Thread(target=self._run, name="ros2-bridge", daemon=True)
 
     def start(self) -> None:
@@ -51,15 +55,20 @@ class Bridge:
 
     # --- what the recorder hands over (its thread; never blocks) ------------------------------------------
 
-    def _put(self, item: tuple) -> None:
+    def _put(self, item: tuple) -> bool:
         try:
             self.inbox.put_nowait(item)
+            return True
         except queue.Full:
             self.dropped += 1
+            return False
 
     def states(self, step: int, t: float, ids: np.ndarray, vals: np.ndarray) -> None:
         """One step's rows (agent/sph/particle.py layout), in `ids` order."""
-        self._put(("states", step, t, np.array(ids, dtype=np.int64), np.array(vals, dtype=float)))
+        if self._handed - self._taken >= STEPS_AHEAD:
+            self.dropped += 1
+        elif self._put(("states", step, t, np.array(ids, dtype=np.int64), np.array(vals, dtype=float))):
+            self._handed += 1
 
     def target(self, t: float, mask: np.ndarray, transform: ImageToDomain) -> None:
         self._put(("target", t, m.outline_loops(mask, transform)))
@@ -97,8 +106,9 @@ class Bridge:
         except Exception as exc:  # noqa: BLE001  # zenoh's error for an unreachable router; the run goes on
             self.node.close()
             self.note(f"ros2: no ROS 2 router at {self.endpoint} ({exc}); the run goes on without ROS 2")
-            while self.inbox.get() is not _STOP:  # keep the recorder's hand-overs from filling the queue
-                pass
+            while (item := self.inbox.get()) is not _STOP:  # keep the recorder's hand-overs from filling the queue
+                if item[0] == "states":
+                    self._taken += 1
             return
         try:
             connected = True
@@ -124,8 +134,8 @@ class Bridge:
 
     def _publish(self, pubs: dict, item: tuple) -> None:
         kind, t = item[0], item[2] if item[0] == "states" else item[1]
-        self._t = t
         if kind == "states":
+            self._taken += 1
             _, _step, t, ids, vals = item
             xy = vals[:, [X, Y]]
             yaw = m.headings(vals[:, [VX, VY]], vals[:, HEADING] if self.unicycle else None)
