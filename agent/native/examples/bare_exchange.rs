@@ -12,6 +12,12 @@
 //! once, until every agent of its cells has sent that round's record. Prints one line at the end:
 //! `cpu_us=<CPU of the rounds> wall_s=<> received=<records> expected=<per round> switches=<context switches>`.
 //!
+//! With $BARE_INLINE = 1 the agent steps on zenoh's receiving thread (issue 49 item 1, shell.rs): the cell
+//! callback that completes a round puts the next round's record itself, and the main thread only makes the
+//! first put and waits for the last round. Run it with $BARE_RUNTIME =
+//! `(rx:(worker_threads:1),tx:(handover:rx),app:(handover:rx),net:(handover:rx),acc:(handover:rx))` (the
+//! agent's layout since then), so that the put's transmit task runs on the same worker and wakes nobody.
+//!
 //! Extra client settings (batching, queues: docs/benchmarks/realtime.md) come as `path=json5` pairs separated by
 //! `;` in $BARE_ZENOH_SET; $BARE_RUNTIME replaces the agent's ZENOH_RUNTIME layout. The credentials come from the environment, as the agent's (session.rs).
 
@@ -38,6 +44,37 @@ struct Counts {
 struct Inbox {
     counts: Mutex<Counts>,
     bell: Condvar,
+    /// BARE_INLINE: what the callback needs to put the next round (set before the start)
+    inline: std::sync::OnceLock<Putter>,
+}
+
+/// The next round's put, made by whichever thread completes a round.
+struct Putter {
+    session: zenoh::Session,
+    key: zenoh::key_expr::KeyExpr<'static>,
+    id: u32,
+    state: [f64; NFIELDS],
+    rounds: u32,
+}
+
+impl Putter {
+    fn put(&self, round: u32) {
+        let record = wire::encode_state(self.id, round, &self.state, 0);
+        self.session
+            .put(self.key.clone(), record.to_vec())
+            .congestion_control(CongestionControl::Block)
+            .express(false)
+            .allowed_destination(Locality::Remote)
+            .wait()
+            .expect("put");
+    }
+}
+
+impl Counts {
+    fn complete(&self, round: u32) -> bool {
+        let slot = self.per_round[(round % 4) as usize];
+        slot.0 == round && slot.1 >= self.need
+    }
 }
 
 fn cpu_seconds() -> f64 {
@@ -94,7 +131,8 @@ fn main() {
         conf.insert_json5(path, value).unwrap_or_else(|e| panic!("{path}: {e}"));
     }
     let session = zenoh::open(conf).wait().expect("open");
-    let inbox = Arc::new(Inbox { counts: Mutex::default(), bell: Condvar::new() });
+    let inbox = Arc::new(Inbox { counts: Mutex::default(), bell: Condvar::new(), inline: Default::default() });
+    let inline = std::env::var("BARE_INLINE").is_ok_and(|v| v == "1");
 
     let mut held = Vec::new();
     for &c in &cells {
@@ -111,9 +149,23 @@ fn main() {
                     *slot = (step, 0);
                 }
                 slot.1 += 1;
-                let done = slot.1;
-                if step == k.want && done >= k.need {
-                    ib.bell.notify_one();
+                if step != k.want || !k.complete(step) {
+                    return;
+                }
+                match ib.inline.get() {
+                    // the rounds this callback completes (a neighbour's next round may already be in)
+                    Some(p) => {
+                        while k.want < p.rounds && k.complete(k.want) {
+                            k.want += 1;
+                            if k.want < p.rounds {
+                                p.put(k.want);
+                            }
+                        }
+                        if k.want == p.rounds {
+                            ib.bell.notify_one();
+                        }
+                    }
+                    None => ib.bell.notify_one(),
                 }
             })
             .wait()
@@ -147,12 +199,29 @@ fn main() {
             k = inbox.bell.wait_timeout(k, Duration::from_secs(120)).unwrap().0;
         }
     }
-    let (cpu0, t0, sw0) = (cpu_seconds(), Instant::now(), switches());
     let mut state = [0.0; NFIELDS];
     state[0] = x;
     state[1] = y;
     state[4] = 1.0;
-    for round in 0..rounds {
+    if inline {
+        inbox.counts.lock().unwrap().need = expected; // before the putter: a round of 0 needed is complete
+        let p = Putter { session: session.clone(), key: put_key.clone(), id, state, rounds };
+        inbox.inline.set(p).ok().expect("set once");
+    }
+    let (cpu0, t0, sw0) = (cpu_seconds(), Instant::now(), switches());
+    if let (Some(p), true) = (inbox.inline.get(), rounds > 0) {
+        p.put(0);
+        let mut k = inbox.counts.lock().unwrap();
+        while k.want < rounds {
+            let (next, timeout) = inbox.bell.wait_timeout(k, Duration::from_secs(30)).unwrap();
+            k = next;
+            if timeout.timed_out() {
+                eprintln!("bare_exchange {id}: round {} not complete after 30 s", k.want);
+                std::process::exit(3);
+            }
+        }
+    }
+    for round in (0..rounds).filter(|_| !inline) {
         inbox.counts.lock().unwrap().want = round;
         inbox.counts.lock().unwrap().need = expected;
         let record = wire::encode_state(id, round, &state, 0);

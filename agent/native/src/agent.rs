@@ -50,8 +50,6 @@ const START_BURST_TIMEOUT: f64 = 15.0;
 const START_BURST_STEPS: u32 = 4;
 /// The longest sleep of a waiting phase, s: the shell looks at its stop flag at least this often.
 const SLICE: f64 = 0.25;
-/// How often a paced agent looks at the clock without a tick, s.
-const PACE_SLICE: f64 = 0.05;
 
 pub const EXIT_OK: i32 = 0;
 pub const EXIT_FELL_BEHIND: i32 = 3;

@@ -56,13 +56,18 @@ fn fail(msg: &str) -> ! {
     std::process::exit(2)
 }
 
-/// Zenoh's runtimes (app, rx, tx, acc, net) each start threads. The agent runs one receiving thread (which
-/// also runs our callbacks) and one for the rest: at N = 300 that ran 1.23x the steps/s of zenoh's own
-/// default layout (docs/benchmarks/native.md). zenoh reads its layout only from ZENOH_RUNTIME, so it is set
-/// here for this process alone (in the launcher's environment it would also reach its router, which needs
-/// its threads).
+/// Zenoh's runtimes (app, rx, tx, acc, net) each start threads. The agent runs one worker, its receiving
+/// thread, and hands every other runtime over to it: the callbacks run the agent's core on that worker
+/// (shell.rs) and its state put wakes the link's transmit task on the same worker, which tokio then runs
+/// from the worker's own slot with no other thread woken (tokio's multi-thread scheduler: a task woken from
+/// one of its workers goes to that worker's LIFO slot; from any other thread it is queued and a parked worker
+/// unparked). Measured on the bare exchange at N = 300: 6.7 -> 2.0 context switches and 192 -> 127 us of agent
+/// CPU per agent-step (docs/benchmarks/realtime.md, "One wake-up per step"). Before: one receiving worker and
+/// one app worker (1.23x the steps/s of zenoh's default layout then, docs/benchmarks/native.md). zenoh reads its
+/// layout only from ZENOH_RUNTIME, so it is set here for this process alone (in the launcher's environment it
+/// would also reach its router, which needs its threads).
 fn choose_runtime() {
-    let layout = "(rx:(worker_threads:1),app:(worker_threads:1),acc:(handover:app),net:(handover:app))";
+    let layout = "(rx:(worker_threads:1),tx:(handover:rx),app:(handover:rx),net:(handover:rx),acc:(handover:rx))";
     // SAFETY: called first thing in main, before any other thread exists.
     unsafe { std::env::set_var("ZENOH_RUNTIME", layout) };
 }

@@ -1,12 +1,22 @@
-//! The Zenoh shell around the agent's core (agent.rs): config once and declare once (main.rs, here), tiny
-//! callbacks that queue what arrives (inbox.rs), and one loop: take what came, hand it to the core with the
-//! time, perform the actions it returns.
+//! The Zenoh shell around the agent's core (agent.rs): config once and declare once (main.rs, here), and the
+//! core run where its input arrives. zenoh calls a subscriber's callback on the receiving thread that read the
+//! message, with no zenoh lock held; the callback queues the input (inbox.rs) and, when the core has something
+//! to do (what its last `Sleep` said to wake for: the step's last awaited state, a clock tick while paced, a
+//! control or command), runs the core right there and puts its state from that thread. With the runtime layout
+//! of main.rs (`choose_runtime`: one receiving worker that also runs the transmit task) a lockstep step then
+//! costs the agent one wake-up: no hand-over to a stepping thread, no unpark of a transmit thread
+//! (docs/benchmarks/realtime.md, "One wake-up per step").
+//!
+//! The main thread keeps what may block or is rare: the core's timeouts (a `Sleep` that ran out: a
+//! republication, a neighbour timeout, an async step), the stop flag, (un)subscribing cells, the alive
+//! token, events and the final report, the close. It looks at least every `SLICE`, and sooner when a callback
+//! hands it an action or moves the core's sleep earlier than it looks next.
 
 mod inbox;
 
 use std::collections::HashMap;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use zenoh::key_expr::KeyExpr;
@@ -16,18 +26,30 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::Locality;
 use zenoh::{Session, Wait};
 
-use crate::agent::{Action, AgentCore, Input, Wake};
+use crate::agent::{Action, AgentCore, Input};
 use crate::event::EventKind;
 use crate::final_report::FinalReport;
 use crate::keys;
 use crate::route::CommandFollower;
 use crate::spec::AgentSpec;
+use crate::wire;
 use inbox::Inbox;
 
-/// Set by SIGTERM/SIGINT (main.rs); looked at every wake-up (at most `SLICE` apart).
+/// Set by SIGTERM/SIGINT (main.rs); looked at every wake-up of the main thread (at most `SLICE` apart).
 pub static STOP: AtomicBool = AtomicBool::new(false);
-/// The longest the shell sleeps without looking at STOP.
+/// The longest the main thread sleeps without looking at STOP.
 const SLICE: Duration = Duration::from_millis(250);
+/// A callback rings the main thread for a sleep it shortened only when the main thread would look this much
+/// later, s. The timers a callback sets are a lockstep wait's (its republication and deadline, a fraction of
+/// the neighbour timeout away) and a paced agent's slice; the timers that need precision, the async steps,
+/// the main thread sets itself.
+const RING_SLACK: f64 = 0.1;
+/// After a freeze (the core not run for longer than the neighbour timeout: SIGSTOP, a host that stood still)
+/// the core is run only this long after the shell noticed it, s: time for the receiving thread to read what
+/// queued up in the socket meanwhile. Run at once on the first states read, the oldest, the core caught up
+/// through the steps it missed one by one instead of seeing its neighbours' newest states and rejoining the
+/// swarm at their step (agent/receive.rs `behind`; tests/test_faults.py, two agents frozen for 3 s).
+const RESUME_LISTEN: f64 = 0.05;
 
 fn unix_now() -> f64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs_f64()).unwrap_or(0.0)
@@ -64,18 +86,161 @@ fn pss_mb() -> f64 {
     proc_mb("/proc/self/smaps_rollup", "Pss:")
 }
 
-/// What the shell holds for the run: the session, its declarations, the process figures of the report.
+/// Where the agent's state goes: its own id key under per-process rights, else its cell's key.
+struct StateKeys {
+    session: Session,
+    run: String,
+    /// under per-process rights: our state key, declared once
+    own: Option<KeyExpr<'static>>,
+    /// without per-process rights: our current cell and its declared key
+    cell: Option<((i64, i64), KeyExpr<'static>)>,
+}
+
+impl StateKeys {
+    /// The key for a state of a particle in `cell`. The cell's key (a numeric id on the link) is declared anew
+    /// on entering a cell.
+    fn key(&mut self, cell: (i64, i64)) -> Option<KeyExpr<'static>> {
+        if self.own.is_some() {
+            return self.own.clone();
+        }
+        if self.cell.as_ref().map(|(pc, _)| *pc) != Some(cell) {
+            if let Some((_, old)) = self.cell.take() {
+                let _ = self.session.undeclare(old).wait();
+            }
+            if let Ok(key) = self.session.declare_keyexpr(keys::cell_key(&self.run, cell)).wait() {
+                self.cell = Some((cell, key));
+            }
+        }
+        self.cell.as_ref().map(|(_, k)| k.clone())
+    }
+}
+
+/// Put a state record. Batched (`express` off: 3.1x the steps/s of `express` on at N = 100) and remote only:
+/// our own cell's subscriber would otherwise get our state back (under per-process rights the relay's copy on
+/// our cell still comes back; the core drops it). docs/benchmarks/native.md.
+fn put_state(session: &Session, key: KeyExpr<'static>, record: &[u8; wire::STATE_SIZE], cc: CongestionControl) {
+    let _ = session
+        .put(key, record.to_vec())
+        .congestion_control(cc)
+        .express(false)
+        .allowed_destination(Locality::Remote)
+        .wait();
+}
+
+/// What the receiving thread and the main thread share, under one mutex.
+struct Driven {
+    core: AgentCore,
+    inbox: Inbox,
+    keys: StateKeys,
+    /// when the core's latest sleep ends, s on the shell's clock
+    until: f64,
+    /// when the main thread looks next while it waits (-inf while it is busy: it looks again anyway)
+    looks_at: f64,
+    /// the core's actions for the main thread, in order (all but the state puts and sleeps)
+    deferred: Vec<Action>,
+    /// the core said Exit: nothing runs it any more
+    ended: bool,
+    /// when the core last ran, s on the shell's clock
+    last_run: f64,
+    /// after a freeze: the core is not run before this time (RESUME_LISTEN; 0 when not holding)
+    hold_until: f64,
+    /// a gap between two runs of the core longer than this is a freeze (the spec's neighbour timeout), s
+    freeze_gap: f64,
+}
+
+impl Driven {
+    /// Whether the core may run at `now`: not while holding after a freeze, which this notices.
+    fn may_run(&mut self, now: f64) -> bool {
+        if self.hold_until == 0.0 && now - self.last_run > self.freeze_gap {
+            self.hold_until = now + RESUME_LISTEN;
+        }
+        now >= self.hold_until
+    }
+
+    /// Run the core on what came, at `now`; the actions it returns.
+    fn run_core(&mut self, now: f64, stop: bool) -> Vec<Action> {
+        // A stop comes first: what came after it is not looked at (agent.rs `handle`)
+        let mut inputs = if stop { vec![Input::Stop] } else { Vec::new() };
+        inputs.extend(self.inbox.take());
+        self.last_run = now;
+        self.hold_until = 0.0;
+        self.core.handle(now, inputs)
+    }
+}
+
+struct Shared {
+    driven: Mutex<Driven>,
+    /// rings the main thread
+    bell: Condvar,
+    t0: Instant,
+}
+
+impl Shared {
+    fn lock(&self) -> MutexGuard<'_, Driven> {
+        self.driven.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn now(&self) -> f64 {
+        self.t0.elapsed().as_secs_f64()
+    }
+
+    /// On zenoh's receiving thread: queue an input (`push` says whether the core should run now) and, if so,
+    /// run the core and put its state from this thread.
+    fn deliver(&self, push: impl FnOnce(&mut Inbox) -> bool) {
+        let mut d = self.lock();
+        if !push(&mut d.inbox) || d.ended {
+            return;
+        }
+        let now = self.now();
+        if !d.may_run(now) {
+            self.bell.notify_one(); // the main thread runs it when the hold ends
+            return;
+        }
+        let actions = d.run_core(now, false);
+        let mut ring = false;
+        for action in actions {
+            match action {
+                Action::Publish { cell, record } => {
+                    if let Some(key) = d.keys.key(cell) {
+                        // Drop, not Block: the transmit task that empties the link's queue runs on this very
+                        // thread (main.rs), so a put that waited here for room would wait for itself until
+                        // zenoh closed the link. The queue holds several 64 kB batches, thousands of our
+                        // states: it is full only if the router stopped reading us, and a lockstep state
+                        // lost then is said again while the agent waits (wait.rs, its republication).
+                        put_state(&d.keys.session, key, &record, CongestionControl::Drop);
+                    }
+                }
+                Action::Sleep { until, wake } => {
+                    d.inbox.expect(&wake);
+                    d.until = until;
+                    ring |= until + RING_SLACK < d.looks_at;
+                }
+                other => {
+                    d.ended |= matches!(other, Action::Exit(_));
+                    d.deferred.push(other);
+                    ring = true;
+                }
+            }
+        }
+        if ring {
+            self.bell.notify_one();
+        }
+    }
+}
+
+/// What the main thread does outside the lock, in the order the core said.
+enum Todo {
+    Put(KeyExpr<'static>, [u8; wire::STATE_SIZE]),
+    Act(Action),
+}
+
+/// What only the main thread holds: the declarations and the process figures of the report.
 struct Shell {
     session: Session,
     run: String,
     id: u32,
-    inbox: Arc<Inbox>,
     /// per watched cell, its subscriber and declared key (undeclared with it)
     cells: HashMap<(i64, i64), (Subscriber<()>, KeyExpr<'static>)>,
-    /// without per-process rights: our current cell and its declared key
-    cell_key: Option<((i64, i64), KeyExpr<'static>)>,
-    /// under per-process rights: our state key, declared once (states are put on it)
-    state_key: Option<KeyExpr<'static>>,
     fixed: Vec<Subscriber<()>>,
     token: Option<LivelinessToken>,
     cpu_at_start: Option<f64>,
@@ -84,83 +249,140 @@ struct Shell {
 /// Run the agent of `spec` on an open session; its exit code.
 pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Session) -> i32 {
     let t0 = Instant::now();
-    let mut shell = Shell {
-        session,
-        run: spec.run.clone(),
-        id: spec.id,
-        inbox: Arc::new(Inbox::default()),
-        cells: HashMap::new(),
-        cell_key: None,
-        state_key: None,
-        fixed: Vec::new(),
-        token: None,
-        cpu_at_start: None,
+    let (run, id, state_key_ids, timeout) = (spec.run.clone(), spec.id, spec.state_key_ids, spec.timeout);
+    let commands = controller.is_some();
+    let core = AgentCore::new(spec, controller, 0.0, unix_now());
+    let keys = StateKeys { session: session.clone(), run: run.clone(), own: None, cell: None };
+    let driven = Driven {
+        core,
+        inbox: Inbox::default(),
+        keys,
+        until: 0.0,
+        looks_at: f64::NEG_INFINITY,
+        deferred: Vec::new(),
+        ended: false,
+        last_run: 0.0,
+        hold_until: 0.0,
+        freeze_gap: timeout,
     };
-    let mut batch = Vec::new();
-    if let Err(e) = shell.declare_fixed(controller.is_some(), spec.state_key_ids) {
-        eprintln!("fluidswarm agent {}: error: {e}", spec.id);
-        batch.push(Input::Stop);
+    let shared = Arc::new(Shared { driven: Mutex::new(driven), bell: Condvar::new(), t0 });
+    let mut shell =
+        Shell { session, run, id, cells: HashMap::new(), fixed: Vec::new(), token: None, cpu_at_start: None };
+    let mut stop = false;
+    match shell.declare_fixed(&shared, commands, state_key_ids) {
+        Ok(own) => shared.lock().keys.own = own,
+        Err(e) => {
+            eprintln!("fluidswarm agent {id}: error: {e}");
+            stop = true;
+        }
     }
-    let mut core = AgentCore::new(spec, controller, 0.0, unix_now());
     loop {
-        let now = t0.elapsed().as_secs_f64();
-        let mut sleep = (now, Wake::default());
-        for action in core.handle(now, std::mem::take(&mut batch)) {
-            match action {
-                Action::Sleep { until, wake } => sleep = (until, wake),
-                Action::Exit(code) => {
+        let todo = next_todo(&shared, std::mem::take(&mut stop));
+        for t in todo {
+            match t {
+                Todo::Put(key, record) => {
+                    // Block, from this thread (no worker of zenoh's): a dropped state costs a lockstep swarm a
+                    // republish round (Drop ran 0.5x, docs/benchmarks/native.md).
+                    put_state(&shell.session, key, &record, CongestionControl::Block)
+                }
+                Todo::Act(Action::Exit(code)) => {
                     shell.close();
                     return code;
                 }
-                other => {
-                    if let Err(e) = shell.perform(other) {
+                Todo::Act(action) => {
+                    if let Err(e) = shell.perform(&shared, action) {
                         if shell.cpu_at_start.is_some() {
                             eprintln!("fluidswarm agent {}: subscription failed: {e}", shell.id);
                         } else {
                             // A declaration before the start failed: nothing to run with (report `stopped`)
                             eprintln!("fluidswarm agent {}: error: {e}", shell.id);
-                            batch.push(Input::Stop);
+                            stop = true;
                         }
                     }
                 }
             }
         }
-        if batch.is_empty() {
-            let until = t0 + Duration::from_secs_f64(sleep.0.max(0.0));
-            batch = shell.inbox.take(until, &sleep.1, SLICE, &STOP);
-        }
     }
 }
 
+/// The main thread's wait: until the callbacks hand it actions, the core's sleep runs out, or a stop (the
+/// signal's flag, or `stop`); then the core run if its sleep ran out or it must stop. What to do, in order.
+fn next_todo(shared: &Shared, stop: bool) -> Vec<Todo> {
+    let mut d = shared.lock();
+    loop {
+        let now = shared.now();
+        let due = now >= d.until && d.may_run(now);
+        if stop || STOP.load(Ordering::Relaxed) || !d.deferred.is_empty() || due || d.ended {
+            break;
+        }
+        let looks_at = d.until.max(d.hold_until).min(now + SLICE.as_secs_f64());
+        d.looks_at = looks_at;
+        d = shared.bell.wait_timeout(d, Duration::from_secs_f64(looks_at - now)).unwrap_or_else(|e| e.into_inner()).0;
+    }
+    d.looks_at = f64::NEG_INFINITY;
+    let mut todo: Vec<Todo> = std::mem::take(&mut d.deferred).into_iter().map(Todo::Act).collect();
+    let now = shared.now();
+    let stop = stop || STOP.load(Ordering::Relaxed);
+    if !d.ended && (stop || (now >= d.until && d.may_run(now))) {
+        for action in d.run_core(now, stop) {
+            match action {
+                Action::Publish { cell, record } => {
+                    if let Some(key) = d.keys.key(cell) {
+                        todo.push(Todo::Put(key, record));
+                    }
+                }
+                Action::Sleep { until, wake } => {
+                    d.inbox.expect(&wake);
+                    d.until = until;
+                }
+                other => {
+                    d.ended |= matches!(other, Action::Exit(_));
+                    todo.push(Todo::Act(other));
+                }
+            }
+        }
+    }
+    todo
+}
+
 impl Shell {
-    /// The control and command subscribers and our state key, held for the run.
-    fn declare_fixed(&mut self, commands: bool, state_key_ids: bool) -> Result<(), String> {
-        let inbox = Arc::clone(&self.inbox);
+    /// The control and command subscribers, and our state key under per-process rights, held for the run.
+    fn declare_fixed(
+        &mut self,
+        shared: &Arc<Shared>,
+        commands: bool,
+        state_key_ids: bool,
+    ) -> Result<Option<KeyExpr<'static>>, String> {
+        let sh = Arc::clone(shared);
         let ctl = self
             .session
             .declare_subscriber(keys::ctl_expr(&self.run))
             .callback(move |s| {
                 let key = s.key_expr().as_str().to_string();
                 let is_clock = key.ends_with("/clock");
-                inbox.push(Input::Ctl { key, payload: s.payload().to_bytes().into_owned() }, is_clock)
+                let input = Input::Ctl { key, payload: s.payload().to_bytes().into_owned() };
+                sh.deliver(|inbox| inbox.push(input, is_clock))
             })
             .wait()
             .map_err(zerr)?;
         self.fixed.push(ctl);
         if commands {
-            let inbox = Arc::clone(&self.inbox);
+            let sh = Arc::clone(shared);
             let cmd = self
                 .session
                 .declare_subscriber(keys::command_key(&self.run))
-                .callback(move |s| inbox.push(Input::Command(s.payload().to_bytes().into_owned()), false))
+                .callback(move |s| {
+                    let input = Input::Command(s.payload().to_bytes().into_owned());
+                    sh.deliver(|inbox| inbox.push(input, false))
+                })
                 .wait()
                 .map_err(zerr)?;
             self.fixed.push(cmd);
         }
         if state_key_ids {
-            self.declare_state_key()?;
+            return self.declare_state_key().map(Some);
         }
-        Ok(())
+        Ok(None)
     }
 
     /// Our state key, declared once. States go out with `session.put`, not a declared Publisher: a
@@ -175,38 +397,20 @@ impl Shell {
     /// by side (docs/benchmarks/security.md, "Our own key, declared to the router"). A subscriber on our own
     /// key declares it; it receives nothing (our puts are for remote subscribers only, and the router sends
     /// nobody its own messages back). The cell layout needs none: we subscribe to our own cell anyway.
-    fn declare_state_key(&mut self) -> Result<(), String> {
+    fn declare_state_key(&mut self) -> Result<KeyExpr<'static>, String> {
         let key = self.session.declare_keyexpr(keys::state_key(&self.run, self.id)).wait().map_err(zerr)?;
         let sub = self.session.declare_subscriber(key.clone()).callback(|_| {}).wait().map_err(zerr)?;
         self.fixed.push(sub);
-        self.state_key = Some(key);
-        Ok(())
+        Ok(key)
     }
 
-    fn perform(&mut self, action: Action) -> Result<(), String> {
+    fn perform(&mut self, shared: &Arc<Shared>, action: Action) -> Result<(), String> {
         match action {
-            Action::Subscribe(c) => self.subscribe(c),
+            Action::Subscribe(c) => self.subscribe(shared, c),
             Action::Unsubscribe(c) => {
                 if let Some((sub, key)) = self.cells.remove(&c) {
                     drop(sub); // undeclares the subscription before its key
                     let _ = self.session.undeclare(key).wait();
-                }
-                Ok(())
-            }
-            Action::Publish { cell, record } => {
-                let key = if self.state_key.is_some() { self.state_key.clone() } else { self.cell_key(cell) };
-                if let Some(key) = key {
-                    // Batched (`express` off: 3.1x the steps/s of `express` on at N = 100) and Block (a dropped
-                    // state costs a lockstep swarm a republish round; Drop ran 0.5x): docs/benchmarks/native.md.
-                    // Remote only: our own cell's subscriber would otherwise get our state back (under
-                    // per-process rights the relay's copy on our cell still comes back; the core drops it).
-                    let _ = self
-                        .session
-                        .put(key, record.to_vec())
-                        .congestion_control(CongestionControl::Block)
-                        .express(false)
-                        .allowed_destination(Locality::Remote)
-                        .wait();
                 }
                 Ok(())
             }
@@ -233,13 +437,14 @@ impl Shell {
                 self.put_block(keys::final_key(&self.run, self.id), report.encode());
                 Ok(())
             }
-            Action::Sleep { .. } | Action::Exit(_) => Ok(()), // the loop's own
+            // the state puts, the sleeps and the exit are next_todo's and run's own
+            Action::Publish { .. } | Action::Sleep { .. } | Action::Exit(_) => Ok(()),
         }
     }
 
     /// Hear cell `c`'s states on its exact key.
-    fn subscribe(&mut self, c: (i64, i64)) -> Result<(), String> {
-        let inbox = Arc::clone(&self.inbox);
+    fn subscribe(&mut self, shared: &Arc<Shared>, c: (i64, i64)) -> Result<(), String> {
+        let sh = Arc::clone(shared);
         let exact = keys::cell_key(&self.run, c);
         // Declared first: the router then sends the cell's states with our numeric id for the key.
         let key = self.session.declare_keyexpr(exact.clone()).wait().map_err(zerr)?;
@@ -250,7 +455,8 @@ impl Shell {
                 // A put on a wildcard key (`…/state/**`) reaches this subscriber too, and the router's deny rules
                 // cannot name every wildcard (docs/security.md): only the exact key vouches.
                 let on_key = sample.key_expr().as_str() == exact;
-                inbox.push_state(sample.payload().to_bytes().into_owned(), on_key)
+                let record = sample.payload().to_bytes().into_owned();
+                sh.deliver(|inbox| inbox.push_state(record, on_key))
             })
             .wait()
             .map_err(zerr)?;
@@ -258,22 +464,8 @@ impl Shell {
         Ok(())
     }
 
-    /// The declared key of cell `c` (a numeric id on the link), re-declared on entering a cell: where we put
-    /// our state without per-process rights.
-    fn cell_key(&mut self, c: (i64, i64)) -> Option<KeyExpr<'static>> {
-        if self.cell_key.as_ref().map(|(pc, _)| *pc) != Some(c) {
-            if let Some((_, old)) = self.cell_key.take() {
-                let _ = self.session.undeclare(old).wait();
-            }
-            if let Ok(key) = self.session.declare_keyexpr(keys::cell_key(&self.run, c)).wait() {
-                self.cell_key = Some((c, key));
-            }
-        }
-        self.cell_key.as_ref().map(|(_, k)| k.clone())
-    }
-
     /// Events and the final report: Block, not the default Drop: they are few and must not be lost under load
-    /// (the recorder's MCAP and the launcher's tally depend on them).
+    /// (the recorder's MCAP and the launcher's tally depend on them). From the main thread only (see `deliver`).
     fn put_block(&self, key: String, payload: String) {
         let _ = self.session.put(key, payload).congestion_control(CongestionControl::Block).wait();
     }

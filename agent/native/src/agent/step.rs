@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{Action, AgentCore, Lock, Phase, Wake, CLOCK_LEAD, PACE_SLICE};
+use super::{Action, AgentCore, Lock, Phase, Wake, CLOCK_LEAD, SLICE};
 use crate::event::EventKind;
 use crate::final_report::Status;
 use crate::keys;
@@ -92,7 +92,10 @@ impl AgentCore {
             Lock::Paced => {
                 if self.paced() && !self.behind {
                     self.phase = Phase::Lockstep(Lock::Paced);
-                    self.sleep(now + PACE_SLICE, Wake { on_clock: true, ..Wake::default() });
+                    // The tick it waits for wakes it (the shell runs the core on it); the slice only bounds the
+                    // sleep. A 50 ms slice here woke the shell's main thread about every other step of a
+                    // paced swarm for nothing (the clock moves only by a tick).
+                    self.sleep(now + SLICE, Wake { on_clock: true, ..Wake::default() });
                     return None;
                 }
                 if self.behind {
