@@ -3,12 +3,12 @@
 detector) beside the old one (the plain-background reading alone).
 
 Accuracy is of the hands found (detection is its own column). Hands: the shared set's documented test
-split (perception/dataset.py), the classifiers (ten classes, and classes 0,1,2,4,5) trained on its training
-split only. Per family: `hands` composites with a hand, as many without (false positives: a hand reported
-where there is none), each through `degrade`. Persons: Weizmann silhouettes pasted likewise, found from the
-single frame (perception/selfie.py). The hand photographs and the Weizmann clips come from
-../shared/datasets: without them the benchmark says so and stops (exit 1). The same seed gives the same
-frames.
+split (perception/dataset.py); the classifiers (ten classes, and classes 0,1,2,4,5; the silhouette's and
+the landmarks') trained on its training split only. Per family: `hands` composites with a hand, as many
+without (false positives: a hand reported where there is none), each through `degrade`. Persons: Weizmann
+silhouettes pasted likewise, found from the single frame (perception/selfie.py). The hand photographs and
+the Weizmann clips come from ../shared/datasets: without them the benchmark says so and stops (exit 1).
+The same seed gives the same frames.
 """
 
 from __future__ import annotations
@@ -77,10 +77,11 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
     from threadpoolctl import threadpool_limits
 
     from perception import composites as cm
-    from perception.dataset import shared_split
+    from perception.dataset import is_test_file, shared_split
     from perception.eigen import EigenClassifier
     from perception.features import to_work_size
     from perception.hand import NoHandError, find_hand
+    from perception.hand_pose import pose_classifier
     from perception.io import load_frames
     from perception.segmentation import SegmentationError, hand_mask, person_regions
     from perception.selfie import person_silhouette
@@ -97,6 +98,8 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
         clf10 = EigenClassifier("best").fit(tr, [names[y] for y in ytr])
         idx5 = [i for i, y in enumerate(ytr) if names[y] in FIVE]
         clf5 = EigenClassifier("best").fit([tr[i] for i in idx5], [names[ytr[i]] for i in idx5])
+        poses10 = pose_classifier(files=lambda name: not is_test_file(name))  # the landmarks' classifier
+        poses5 = poses10.only(FIVE)
         # persons: (frame, silhouette) of every 10th frame of each clip, the project's own silhouettes; walls:
         # the clips' medians without their persons. Building: persons 0-3; --held-out: persons 4-6.
         walls, people = [], []
@@ -141,7 +144,7 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                     tally.hands += 1
                     t0 = time.perf_counter()
                     try:
-                        h = find_hand(frame, clf10, learned=learned)
+                        h = find_hand(frame, clf10, learned, poses10)
                     except NoHandError:
                         h = None
                     tally.ms.append(1000 * (time.perf_counter() - t0))
@@ -151,14 +154,14 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                         tally.right10 += h.label == label
                     if label in FIVE:  # the five-class classifier's accuracy on the hands it found
                         try:
-                            right = find_hand(frame, clf5, learned=learned).label == label
+                            right = find_hand(frame, clf5, learned, poses5).label == label
                             tally.five += 1
                             tally.right5 += right
                         except NoHandError:
                             pass
                     tally.empty += 1
                     try:
-                        find_hand(empty, clf10, learned=learned)
+                        find_hand(empty, clf10, learned, poses10)
                         tally.false += 1
                     except NoHandError:
                         pass

@@ -82,13 +82,14 @@ class Hand:
     distance: float  # from the hand space (HAND_SPACE_LIMIT and below: a hand)
 
 
-def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier, learned: bool = True) -> Hand:
+def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier, learned: bool = True, poses=None) -> Hand:
     """The hand in `frame_bgr` with its class ("best" classifier). Raises NoHandError.
 
     A plain, bright background is read as before (`plain_hand`: the classifier's own segmentation, its
     figures unchanged); a picture it refuses goes to the learned hand detector (`learned_hand`: MediaPipe's
     landmarks, a GrabCut silhouette, the hand on a plain background for the classifier), unless `learned`
-    is False. The message of a refusal by both starts with the plain reading's."""
+    is False (`poses`: the learned reading's landmark classifier, default the shipped one). The message of
+    a refusal by both starts with the plain reading's."""
     frame_bgr = check_frame(frame_bgr)
     try:
         return plain_hand(frame_bgr, classifier)
@@ -98,7 +99,7 @@ def find_hand(frame_bgr: np.ndarray, classifier: EigenClassifier, learned: bool 
         plain = exc
     from perception.hand_detector import learned_hand  # the DNN models load on first use
 
-    found = learned_hand(frame_bgr, classifier)
+    found = learned_hand(frame_bgr, classifier, poses)
     if isinstance(found, str):
         raise NoHandError(f"{plain}; {found}", plain.mask)
     return Hand(*found)

@@ -2,11 +2,14 @@
 `find_hand` (perception/hand.py), for the pictures its plain-background reading refuses.
 
 MediaPipe's landmarks (perception/landmarks.py) say where the hand is and whether there is one (the palm
-detector's score and the landmark model's hand-presence score, both at MediaPipe's defaults); GrabCut seeded
+detector's score, and the landmark model's hand-presence score at MediaPipe's default); GrabCut seeded
 by them cuts its silhouette (perception/hand_silhouette.py); the classifier, trained on the shared
 photographs (a hand in front of a plain background), is given the silhouette in front of such a background
-(`clean_crop`), and must place it within the hand space as before. What the rest of the pipeline consumes is
-unchanged: `Hand.mask` is the silhouette in the frame's own pixels.
+(`clean_crop`), and must place it within the hand space as before; the landmarks' own classifier
+(perception/hand_pose.py) must name the same class. The two fail differently (a silhouette that lost a
+finger; landmarks fitted to the wall): on 119 cluttered composites each alone named 103-104 right, the
+two agreed on 100 and 97 of those were right. A disagreement is no hand (the swarm keeps its command).
+What the rest of the pipeline consumes is unchanged: `Hand.mask` is the silhouette in the frame's pixels.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 
 from perception.eigen import EigenClassifier
 from perception.features import hand_hog
+from perception.hand_pose import PoseClassifier, pose_classifier
 from perception.hand_silhouette import clean_crop, silhouette
 from perception.landmarks import find_landmarks
 
@@ -40,8 +44,29 @@ class LearnedHand(NamedTuple):
     distance: float
 
 
-def learned_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> LearnedHand | str:
-    """The hand seen by the learned detector, or why none (a reason to append to the plain reading's)."""
+_poses: dict[tuple[str, ...], PoseClassifier] = {}
+
+
+def classes_of(classifier: EigenClassifier) -> tuple[str, ...]:
+    if classifier.svm is not None:
+        return tuple(str(c) for c in classifier.svm["classes"])
+    return tuple(str(c) for c in np.unique(np.asarray(classifier.train_labels)))
+
+
+def poses_for(classifier: EigenClassifier) -> PoseClassifier:
+    """The shipped landmark classifier kept to `classifier`'s classes (loaded once per class set)."""
+    key = classes_of(classifier)
+    if key not in _poses:
+        _poses[key] = pose_classifier(key)
+    return _poses[key]
+
+
+def learned_hand(
+    frame_bgr: np.ndarray, classifier: EigenClassifier, poses: PoseClassifier | None = None
+) -> LearnedHand | str:
+    """The hand seen by the learned detector, or why none (a reason to append to the plain reading's).
+    Its class is named twice, by the silhouette's classifier and by the landmarks' (`poses`, default the
+    shipped one for the classifier's classes): when they differ, no hand is reported (no command)."""
     hands = find_landmarks(frame_bgr)
     if not hands:
         return "the hand detector sees no hand"
@@ -66,4 +91,7 @@ def learned_hand(frame_bgr: np.ndarray, classifier: EigenClassifier) -> LearnedH
             f"(distance from the hand space {distance:.2f} > {LEARNED_SPACE_LIMIT})"
         )
     label, conf = classifier.predict_features(x)
+    pose, _votes = (poses or poses_for(classifier)).predict(lm.points)
+    if pose != str(label[0]):
+        return f"the hand detector's two readings differ (silhouette: {label[0]}, landmarks: {pose})"
     return LearnedHand(mask, str(label[0]), float(conf[0]), distance)
