@@ -126,8 +126,9 @@ class Peer:
         return found
 
     def subscribe(self, key: str, latched: bool = False) -> None:
-        """Keep every sample on `key` (payload, attachment); `latched`: as a transient-local subscriber, asking
-        the publishers' caches for what they sent before (rmw_zenoh's AdvancedSubscriber with history)."""
+        """Keep every sample on `key` (payload, attachment); `latched`: as a reliable transient-local subscriber of
+        rmw_zenoh's (rmw_subscription_data.cpp): an AdvancedSubscriber asking late publishers' caches for what
+        they sent before, recovering missed samples by their heartbeat."""
         self.samples.setdefault(key, [])
 
         def keep(sample) -> None:
@@ -138,7 +139,12 @@ class Peer:
         if latched:
             self._subs.append(
                 zenoh.ext.declare_advanced_subscriber(
-                    self.session, key, keep, history=zenoh.ext.HistoryConfig(detect_late_publishers=True)
+                    self.session,
+                    key,
+                    keep,
+                    history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1),
+                    recovery=zenoh.ext.RecoveryConfig(heartbeat=True),
+                    subscriber_detection=True,
                 )
             )
         else:

@@ -18,6 +18,8 @@ import zenoh.ext
 
 from fluidswarm.ros2 import rmw
 
+MISS_HEARTBEAT_S = 0.5  # rmw_zenoh's SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD (rmw_publisher_data.cpp), sporadic
+
 
 class Publisher:
     """One topic's publisher: its MP token, its key, its sequence numbers (from 1, as rmw_zenoh's)."""
@@ -30,11 +32,16 @@ class Publisher:
         )
         self._pub: zenoh.Publisher | zenoh.ext.AdvancedPublisher
         if entity.qos.durability == rmw.TRANSIENT_LOCAL:
-            # as rmw_zenoh's: a cache of `depth` samples that late transient-local subscribers query
+            # as rmw_zenoh's: a cache of `depth` samples that late transient-local subscribers query, and (reliable)
+            # the sample-miss heartbeat its reliable transient-local subscribers recover lost samples by
+            reliable = entity.qos.reliability == rmw.RELIABLE
             self._pub = zenoh.ext.declare_advanced_publisher(
                 session,
                 self.key,
                 cache=zenoh.ext.CacheConfig(max_samples=entity.qos.depth),
+                sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S)
+                if reliable
+                else None,
                 publisher_detection=True,
                 reliability=reliability,
                 congestion_control=zenoh.CongestionControl.DROP,
