@@ -39,7 +39,7 @@ class Publisher:
                 session,
                 self.key,
                 cache=zenoh.ext.CacheConfig(max_samples=entity.qos.depth),
-                sample_miss_detection=zenoh.ext.MissDetectionConfig(sporadic_heartbeat=MISS_HEARTBEAT_S)
+                sample_miss_detection=zenoh.ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=MISS_HEARTBEAT_S)
                 if reliable
                 else None,
                 publisher_detection=True,
