@@ -243,3 +243,19 @@ def test_bad_ros2_options_are_one_line(capsys, monkeypatch):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and why in err, err
         monkeypatch.delenv("ROS_DOMAIN_ID", raising=False)
+
+
+def test_the_ros2_session_carries_none_of_the_runs_credentials(monkeypatch):
+    """The recorder runs with its credentials on the swarm's bus in its environment; the ROS 2 session's config
+    (rmw.session_config) takes none of them, and is a client of the ROS 2 router alone."""
+    from agent.protocol.access import PASSWORD_ENV, USER_ENV
+    from agent.protocol.session import client_config
+
+    monkeypatch.setenv(USER_ENV, "recorder")
+    monkeypatch.setenv(PASSWORD_ENV, "secret")
+    assert json.loads(client_config(["tcp/127.0.0.1:1"]).get_json("transport/auth/usrpwd/user")) == "recorder"
+    conf = rmw.session_config("tcp/rosbox:7447", 5000)
+    assert json.loads(conf.get_json("transport/auth/usrpwd/user")) is None
+    assert json.loads(conf.get_json("transport/auth/usrpwd/password")) is None
+    assert json.loads(conf.get_json("connect/endpoints")) == ["tcp/rosbox:7447"]
+    assert json.loads(conf.get_json("mode")) == "client"
