@@ -14,9 +14,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from perception.body_parts import split_body
 from perception.landmarks import letterbox
 from perception.models import load_net
-from perception.segmentation import NoPersonError
+from perception.segmentation import NoPersonError, PersonRegions
 
 MODEL = "selfie_segmentation.tflite"
 SIZE = 256
@@ -47,3 +48,13 @@ def person_silhouette(frame_bgr: np.ndarray) -> np.ndarray:
     padded = np.pad(mask, 1)
     cv2.floodFill(padded, None, (0, 0), 1)
     return mask.astype(bool) | (padded[1:-1, 1:-1] == 0)
+
+
+def person_in_frame(frame_bgr: np.ndarray) -> PersonRegions:
+    """One frame's person with its parts (`split_body` without motion: an arm is what lies beside the
+    torso band or above the head, still or not), as `person_regions` gives a clip's. Raises NoPersonError."""
+    sil = person_silhouette(frame_bgr)
+    parts = split_body(sil)
+    ys, xs = np.nonzero(sil)
+    bbox = (int(xs.min()), int(ys.min()), int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1))
+    return PersonRegions(sil, sil, parts.head, parts.torso, parts.left_arm, parts.right_arm, bbox)
