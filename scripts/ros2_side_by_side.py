@@ -38,6 +38,12 @@ os._exit(0)  # a zenoh-python session with a subscriber can hang the interpreter
 """
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU of a live process so far (/proc/PID/stat)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def launch(n: int, steps: int, folder: str, ros2: str) -> dict:
     cmd = [sys.executable, "-m", "fluidswarm", "launch", "-n", str(n), "--steps", str(steps), "--json"]
     cmd += ["--record", str(Path(folder) / f"run-{'ros2' if ros2 else 'plain'}.mcap")]
@@ -67,8 +73,17 @@ def main() -> int:
             for r in range(rounds):
                 order = ("", endpoint) if r % 2 == 0 else (endpoint, "")
                 for ros2 in order:
+                    side = cpu_seconds(router.pid) + cpu_seconds(listener.pid)
                     rec = launch(n, steps, folder, ros2)
-                    row = {"round": r, "ros2": bool(ros2), "steps_per_second": rec["steps_per_second"]}
+                    side = cpu_seconds(router.pid) + cpu_seconds(listener.pid) - side
+                    row = {
+                        "round": r,
+                        "ros2": bool(ros2),
+                        "steps_per_second": rec["steps_per_second"],
+                        # the stand-in ROS 2 side's CPU during the run (router + listener): on this machine too
+                        "ros2_side_cpu_s": round(side, 2),
+                        "wall_s": rec.get("wall_seconds"),
+                    }
                     rows.append(row)
                     print(json.dumps(row), flush=True)
     finally:
