@@ -136,8 +136,9 @@ struct Driven {
     until: f64,
     /// when the main thread looks next while it waits (-inf while it is busy: it looks again anyway)
     looks_at: f64,
-    /// the core's actions for the main thread, in order (all but the state puts and sleeps)
-    deferred: Vec<Action>,
+    /// the core's actions for the main thread, in order (all but the sleeps, and the state puts but those of
+    /// a run that subscribed a cell)
+    deferred: Vec<Todo>,
     /// the core said Exit: nothing runs it any more
     ended: bool,
     /// when the core last ran, s on the shell's clock
@@ -197,17 +198,32 @@ impl Shared {
             return;
         }
         let actions = d.run_core(now, false);
+        // A cell entered must be heard before our state goes out: a neighbour answers our state with its next
+        // one, which the router sends only to the subscriptions it already has. Declaring waits for room in
+        // the link's queue (zenoh never drops a declaration), which this worker must not, so a run of the
+        // core that subscribes hands all its actions to the main thread, in order (a few steps in a hundred).
+        // Put here, the state overtook its cell's subscription and the neighbour's answer was lost until its
+        // republication (N = 1000: 2.5 steps/s against 4.4).
+        let hand_off = actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
         let mut ring = false;
         for action in actions {
             match action {
                 Action::Publish { cell, record } => {
-                    if let Some(key) = d.keys.key(cell) {
-                        // Drop, not Block: the transmit task that empties the link's queue runs on this very
-                        // thread (main.rs), so a put that waited here for room would wait for itself until
-                        // zenoh closed the link. The queue holds several 64 kB batches, thousands of our
-                        // states: it is full only if the router stopped reading us, and a lockstep state
-                        // lost then is said again while the agent waits (wait.rs, its republication).
-                        put_state(&d.keys.session, key, &record, CongestionControl::Drop);
+                    let Some(key) = d.keys.key(cell) else { continue };
+                    if hand_off {
+                        d.deferred.push(Todo::Put(key, record));
+                        ring = true;
+                    } else {
+                        // Block, as from the main thread: a message's congestion control travels with it, and
+                        // a router drops a `Drop` state for any subscriber whose queue is full (measured: the
+                        // launcher's pacer at N = 1000 lost states, its clock stood for the agent timeout,
+                        // 4.4 -> 0.7 steps/s). This worker also runs the link's transmit task, so a put that
+                        // waited for room would wait for itself; it waits only when both of the link's
+                        // batches are out, and the transmit task writes one at a time: that takes a whole
+                        // unsent 64 kB batch of our states (~500 steps the router did not read us), which a
+                        // lockstep agent cannot reach: it steps only on states the same router relays, and a
+                        // router that stops reading agents stops relaying them.
+                        put_state(&d.keys.session, key, &record, CongestionControl::Block);
                     }
                 }
                 Action::Sleep { until, wake } => {
@@ -217,7 +233,7 @@ impl Shared {
                 }
                 other => {
                     d.ended |= matches!(other, Action::Exit(_));
-                    d.deferred.push(other);
+                    d.deferred.push(Todo::Act(other));
                     ring = true;
                 }
             }
@@ -281,8 +297,8 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
         for t in todo {
             match t {
                 Todo::Put(key, record) => {
-                    // Block, from this thread (no worker of zenoh's): a dropped state costs a lockstep swarm a
-                    // republish round (Drop ran 0.5x, docs/benchmarks/native.md).
+                    // Block: a dropped state costs a lockstep swarm a republish round (Drop ran 0.5x,
+                    // docs/benchmarks/native.md).
                     put_state(&shell.session, key, &record, CongestionControl::Block)
                 }
                 Todo::Act(Action::Exit(code)) => {
@@ -320,7 +336,7 @@ fn next_todo(shared: &Shared, stop: bool) -> Vec<Todo> {
         d = shared.bell.wait_timeout(d, Duration::from_secs_f64(looks_at - now)).unwrap_or_else(|e| e.into_inner()).0;
     }
     d.looks_at = f64::NEG_INFINITY;
-    let mut todo: Vec<Todo> = std::mem::take(&mut d.deferred).into_iter().map(Todo::Act).collect();
+    let mut todo = std::mem::take(&mut d.deferred);
     let now = shared.now();
     let stop = stop || STOP.load(Ordering::Relaxed);
     if !d.ended && (stop || (now >= d.until && d.may_run(now))) {
