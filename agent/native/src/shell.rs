@@ -141,6 +141,9 @@ struct Driven {
     deferred: Vec<Todo>,
     /// the core said Exit: nothing runs it any more
     ended: bool,
+    /// state puts the main thread holds (handed over or its own) and has not yet made: the callbacks' puts
+    /// wait behind them
+    held_puts: usize,
     /// when the core last ran, s on the shell's clock
     last_run: f64,
     /// after a freeze: the core is not run before this time (RESUME_LISTEN; 0 when not holding)
@@ -204,7 +207,11 @@ impl Shared {
         // core that subscribes hands all its actions to the main thread, in order (a few steps in a hundred).
         // Put here, the state overtook its cell's subscription and the neighbour's answer was lost until its
         // republication (N = 1000: 2.5 steps/s against 4.4).
-        let hand_off = actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
+        // And our states leave in the order the core made them: while the main thread still holds one (handed
+        // over, or made by a timeout), this run's go behind it. Put here before it, a step-m+1 state overtook
+        // step m's, and a neighbour still at m took m as lost and stepped without it (inexact: the rogue-states
+        // test, 0.012 m).
+        let hand_off = d.held_puts > 0 || actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
         let mut ring = false;
         for action in actions {
             match action {
@@ -212,6 +219,7 @@ impl Shared {
                     let Some(key) = d.keys.key(cell) else { continue };
                     if hand_off {
                         d.deferred.push(Todo::Put(key, record));
+                        d.held_puts += 1;
                         ring = true;
                     } else {
                         // Block, as from the main thread: a message's congestion control travels with it, and
@@ -277,6 +285,7 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
         looks_at: f64::NEG_INFINITY,
         deferred: Vec::new(),
         ended: false,
+        held_puts: 0,
         last_run: 0.0,
         hold_until: 0.0,
         freeze_gap: timeout,
@@ -299,7 +308,8 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
                 Todo::Put(key, record) => {
                     // Block: a dropped state costs a lockstep swarm a republish round (Drop ran 0.5x,
                     // docs/benchmarks/native.md).
-                    put_state(&shell.session, key, &record, CongestionControl::Block)
+                    put_state(&shell.session, key, &record, CongestionControl::Block);
+                    shared.lock().held_puts -= 1;
                 }
                 Todo::Act(Action::Exit(code)) => {
                     shell.close();
@@ -345,6 +355,7 @@ fn next_todo(shared: &Shared, stop: bool) -> Vec<Todo> {
                 Action::Publish { cell, record } => {
                     if let Some(key) = d.keys.key(cell) {
                         todo.push(Todo::Put(key, record));
+                        d.held_puts += 1;
                     }
                 }
                 Action::Sleep { until, wake } => {
