@@ -204,9 +204,8 @@ impl Shared {
         // A cell entered must be heard before our state goes out: a neighbour answers our state with its next
         // one, which the router sends only to the subscriptions it already has. Declaring waits for room in
         // the link's queue (zenoh never drops a declaration), which this worker must not, so a run of the
-        // core that subscribes hands all its actions to the main thread, in order (a few steps in a hundred).
-        // Put here, the state overtook its cell's subscription and the neighbour's answer was lost until its
-        // republication (N = 1000: 2.5 steps/s against 4.4).
+        // core that subscribes hands all its actions to the main thread, in order (a few steps in a hundred), as
+        // the main thread did before: declare, then put.
         // And our states leave in the order the core made them: while the main thread still holds one (handed
         // over, or made by a timeout), this run's go behind it. Put here before it, a step-m+1 state overtook
         // step m's, and a neighbour still at m took m as lost and stepped without it (inexact: the rogue-states
