@@ -170,6 +170,48 @@ impl Driven {
         self.hold_until = 0.0;
         self.core.handle(now, inputs)
     }
+
+    /// Sort the core's actions: a sleep sets what to wait for, a state put is made at once when `put_here` (the
+    /// callbacks' worker, see `Shared::deliver`) and otherwise held for the main thread in order, the rest go to
+    /// the main thread. Whether the main thread must look (it holds something new, or the sleep now ends more
+    /// than RING_SLACK before it looks).
+    fn dispatch(&mut self, actions: Vec<Action>, put_here: bool, out: &mut Vec<Todo>) -> bool {
+        let mut ring = false;
+        for action in actions {
+            match action {
+                Action::Publish { cell, record } => {
+                    let Some(key) = self.keys.key(cell) else { continue };
+                    if put_here {
+                        // Block, as from the main thread: a message's congestion control travels with it, and
+                        // a router drops a `Drop` state for any subscriber whose queue is full (measured: the
+                        // launcher's pacer at N = 1000 lost states, its clock stood for the agent timeout,
+                        // 4.4 -> 0.7 steps/s). This worker also runs the link's transmit task, so a put that
+                        // waited for room would wait for itself; it waits only when both of the link's
+                        // batches are out, and the transmit task writes one at a time: that takes a whole
+                        // unsent 64 kB batch of our states (~500 steps the router did not read us), which a
+                        // lockstep agent cannot reach: it steps only on states the same router relays, and a
+                        // router that stops reading agents stops relaying them.
+                        put_state(&self.keys.session, key, &record, CongestionControl::Block);
+                    } else {
+                        out.push(Todo::Put(key, record));
+                        self.held_puts += 1;
+                        ring = true;
+                    }
+                }
+                Action::Sleep { until, wake } => {
+                    self.inbox.expect(&wake);
+                    self.until = until;
+                    ring |= until + RING_SLACK < self.looks_at;
+                }
+                other => {
+                    self.ended |= matches!(other, Action::Exit(_));
+                    out.push(Todo::Act(other));
+                    ring = true;
+                }
+            }
+        }
+        ring
+    }
 }
 
 struct Shared {
@@ -211,40 +253,9 @@ impl Shared {
         // step m's, and a neighbour still at m took m as lost and stepped without it (inexact: the rogue-states
         // test, 0.012 m).
         let hand_off = d.held_puts > 0 || actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
-        let mut ring = false;
-        for action in actions {
-            match action {
-                Action::Publish { cell, record } => {
-                    let Some(key) = d.keys.key(cell) else { continue };
-                    if hand_off {
-                        d.deferred.push(Todo::Put(key, record));
-                        d.held_puts += 1;
-                        ring = true;
-                    } else {
-                        // Block, as from the main thread: a message's congestion control travels with it, and
-                        // a router drops a `Drop` state for any subscriber whose queue is full (measured: the
-                        // launcher's pacer at N = 1000 lost states, its clock stood for the agent timeout,
-                        // 4.4 -> 0.7 steps/s). This worker also runs the link's transmit task, so a put that
-                        // waited for room would wait for itself; it waits only when both of the link's
-                        // batches are out, and the transmit task writes one at a time: that takes a whole
-                        // unsent 64 kB batch of our states (~500 steps the router did not read us), which a
-                        // lockstep agent cannot reach: it steps only on states the same router relays, and a
-                        // router that stops reading agents stops relaying them.
-                        put_state(&d.keys.session, key, &record, CongestionControl::Block);
-                    }
-                }
-                Action::Sleep { until, wake } => {
-                    d.inbox.expect(&wake);
-                    d.until = until;
-                    ring |= until + RING_SLACK < d.looks_at;
-                }
-                other => {
-                    d.ended |= matches!(other, Action::Exit(_));
-                    d.deferred.push(Todo::Act(other));
-                    ring = true;
-                }
-            }
-        }
+        let mut handed = Vec::new();
+        let ring = d.dispatch(actions, !hand_off, &mut handed);
+        d.deferred.append(&mut handed);
         if ring {
             self.bell.notify_one();
         }
@@ -349,24 +360,8 @@ fn next_todo(shared: &Shared, stop: bool) -> Vec<Todo> {
     let now = shared.now();
     let stop = stop || STOP.load(Ordering::Relaxed);
     if !d.ended && (stop || (now >= d.until && d.may_run(now))) {
-        for action in d.run_core(now, stop) {
-            match action {
-                Action::Publish { cell, record } => {
-                    if let Some(key) = d.keys.key(cell) {
-                        todo.push(Todo::Put(key, record));
-                        d.held_puts += 1;
-                    }
-                }
-                Action::Sleep { until, wake } => {
-                    d.inbox.expect(&wake);
-                    d.until = until;
-                }
-                other => {
-                    d.ended |= matches!(other, Action::Exit(_));
-                    todo.push(Todo::Act(other));
-                }
-            }
-        }
+        let actions = d.run_core(now, stop);
+        d.dispatch(actions, false, &mut todo); // the main thread looks again anyway
     }
     todo
 }
