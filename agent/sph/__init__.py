@@ -1,6 +1,8 @@
 """Pure SPH physics (thesis ch. 3 and 6): arrays in, arrays out; no I/O, no globals.
 
-The agent process and the centralised reference solvers call these same functions.
+The centralised reference solvers (`verify`'s and `reproduce`'s oracle) call these functions; the agent process
+does not: it is compiled, and its step (agent/native/src/sph.rs) is tested against tests/vectors/sph_steps.json,
+written by this package.
 """
 
 from agent.sph.equations import (
