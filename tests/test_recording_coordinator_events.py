@@ -67,13 +67,11 @@ def test_notes_and_later_commands_are_written_as_events_and_targets(shared_image
 def test_a_lost_host_from_the_launchers_events_is_a_launcher_warning_naming_its_agents(tmp_path):
     """The launcher's events folder (--launcher-events): the pacer's host_lost note, as Launcher writes it, into a
     real MCAP, read back (`replay --check` prints them: tests/test_workers_netns.py)."""
-    from swarmhost.pacing import Pacer, Share
+    from swarmhost.pacing_core import HostLost, PaceCore, Share
 
     folder = tmp_path / "launcher"
     folder.mkdir()
-    pacer = Pacer.__new__(Pacer)  # only its host bookkeeping: no session, no swarm
-    pacer.notes, pacer.lost_hosts = [], []
-    pacer.share = Share(own=(0, 1, 2, 3), swarm=12, owner=True, others=((4, 5, 6, 9), (7, 8, 10, 11)))
+    core = PaceCore("r", 2.0, Share(own=(0, 1, 2, 3), swarm=12, owner=True, others=((4, 5, 6, 9), (7, 8, 10, 11))))
     written = []
 
     def log(lost: dict, text: str) -> None:  # Launcher._log_host_lost's line
@@ -81,12 +79,16 @@ def test_a_lost_host_from_the_launchers_events_is_a_launcher_warning_naming_its_
         with open(folder / "events.jsonl", "a") as f:
             f.write(json.dumps({"event": "host_lost", "what": text, **lost}) + "\n")
 
-    pacer.on_host_lost = log
-    pacer._lose_host(7, 4, 42)
-    assert pacer.lost_hosts == [{"first": 7, "agents": 4, "step": 42, "ids": [7, 8, 10, 11]}]
+    def lose_host(first: int, agents: int, step: int) -> None:  # as the pacer's shell hands the core's HostLost on
+        for action in core.lose_host(first, agents, step):
+            if isinstance(action, HostLost):
+                log(action.lost, action.text)
+
+    lose_host(7, 4, 42)
+    assert core.lost_hosts == [{"first": 7, "agents": 4, "step": 42, "ids": [7, 8, 10, 11]}]
     assert written[0].startswith("the host of agents 7-8, 10-11 was lost: its share clock stopped at step 42")
-    pacer._lose_host(30, 2, 5)  # a host this one knows nothing of: named by its first agent and size
-    assert pacer.lost_hosts[1]["ids"] is None and "2 agents from agent 30" in written[1]
+    lose_host(30, 2, 5)  # a host this one knows nothing of: named by its first agent and size
+    assert core.lost_hosts[1]["ids"] is None and "2 agents from agent 30" in written[1]
     with RunWriter(tmp_path / "run.mcap", {"scenario": "lost"}) as w:
         follow = CoordinatorEvents(folder, w, None)
         follow.poll(0.84)
@@ -97,7 +99,7 @@ def test_a_lost_host_from_the_launchers_events_is_a_launcher_warning_naming_its_
 
 
 def test_a_two_host_split_names_the_other_hosts_ids_without_being_told():
-    from swarmhost.pacing import Share, _ranges
+    from swarmhost.pacing_core import Share, _ranges
 
     assert Share((0, 1, 2), 6, True).ids_of(3, 3) == [3, 4, 5]
     assert Share((0, 1, 2), 6, True).ids_of(4, 2) is None  # three hosts: not the rest
