@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass, field
 
 from agent.protocol.errors import FluidswarmError
 from agent.records import native
+from agent.sph.params import SPHParams
 
 # The bounds (docs/command.md), the agent crate's command.rs: what a receiver accepts.
 VERSION = 1
@@ -96,8 +97,8 @@ class GestureCommand:
     gesture: str  # what the coordinator recognised (for logs)
     n_agents: int  # swarm size the shares are divided over
     classes: tuple[ParticleClass, ...]
-    beta: float = 2.0  # stiffness before any switch
-    mu: float = 0.0  # viscosity before any switch
+    beta: float = SPHParams.beta  # stiffness before any switch (the fluid's)
+    mu: float = SPHParams.mu  # viscosity before any switch
     extra: dict = field(default_factory=dict)  # free-form annotations (ellipses, controller) for logs only
     fill: Fill | None = None  # the shape to fill; with it, routes are not followed (classes still label)
 

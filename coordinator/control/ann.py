@@ -23,6 +23,7 @@ import numpy as np
 
 from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.material import BETA, MU
 from coordinator.control.pca import _hand_frame, pca_command
 from perception.ann import GestureANN
 from perception.ellipses import hand_regions
@@ -96,7 +97,7 @@ def ann_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1) -> G
         gesture="two_branches" if len(angles) == 2 else "one_branch",
         n_agents=int(n_agents),
         classes=tuple(classes),
-        beta=2.0,
-        mu=0.2,
+        beta=BETA,
+        mu=MU,
         extra=extra,
     )

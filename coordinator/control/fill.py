@@ -39,17 +39,12 @@ from agent.protocol.errors import UserError
 from agent.sph.kernel import gaussian_kernel
 from agent.sph.params import SPHParams
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.material import BETA, MU
 
 AREA_PER_PARTICLE = 1.7  # m^2 of silhouette per particle
 COMPRESSION = 0.85  # rest density / the density the area calls for
 THIN_PART = 0.5  # erode a thin part by at most this fraction of its half-width
 ALPHA, RAMP = 80.0, 0.2  # the wall: 80 1/s^2 over 0.2 m (at most 16 m/s^2 back into the shape)
-BETA, MU = 2.0, 0.2
-FINGER_BETA, FINGER_MU = (
-    5.0,
-    1.0,
-)  # the fingers' material (thesis: beta 2 -> 50 past the palm; 50 measured worse, docs/fill.md)
-ARM_BETA, ARM_MU = 20.0, 1.0  # the arms' material (thesis: beta 2 -> 20 past the shoulders, §6.3)
 ZONE_GROW = 1.2  # a moment ellipse (4 sigma) stops short of a part's ends
 INITIAL_SPACING = 1.2  # m, the starting lattice at the palm / torso centre
 MIN_PIXELS = 20  # a smaller silhouette does not say what shape it is (a coarse one is fine: a 64 px clip's

@@ -18,17 +18,10 @@ from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
 from coordinator.control.ann import ann_command
 from coordinator.control.fill import AREA_PER_PARTICLE as FILL_AREA
-from coordinator.control.fill import (
-    ARM_BETA,
-    ARM_MU,
-    FINGER_BETA,
-    FINGER_MU,
-    fill_command,
-    material_zones,
-    rest_density,
-)
 from coordinator.control.fill import INITIAL_SPACING as FILL_SPACING
+from coordinator.control.fill import fill_command, material_zones, rest_density
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.material import ARM_BETA, ARM_MU, BETA, FINGER_BETA, FINGER_MU, MU
 from coordinator.control.observe import Observation, hand_label, is_clip, observe
 from coordinator.control.pca import pca_command
 from coordinator.control.region import (
@@ -75,7 +68,7 @@ def imitation_params(domain, controller: Controller | None = None) -> SPHParams:
     dt = 0.02 s with v_max = 3 m/s (0.06 m per step); mu = 0.2 kg/s; drag 1.5 1/s. The fill controller
     sets the rest density from the area each particle is given (coordinator/control/fill.py: rest_density).
     """
-    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=0.2, beta=2.0, domain=tuple(domain), border=Border.REFLECT)
+    params = SPHParams(dt=0.02, v_max=3.0, drag=1.5, mu=MU, beta=BETA, domain=tuple(domain), border=Border.REFLECT)
     if controller is Controller.FILL:
         params = replace(params, rho0=rest_density(params))
     return params

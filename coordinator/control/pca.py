@@ -22,6 +22,7 @@ import numpy as np
 
 from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.material import BETA, MU
 from perception.eigen import default_model
 from perception.ellipses import hand_regions
 
@@ -179,4 +180,4 @@ def pca_command(obs, transform: ImageToDomain, n_agents: int, seq: int = 1, alph
         classes = _place(HAND_TEMPLATES[name], origin, radius, up, transform, alpha)
         recognised = f"digit{digit}"
     extra = {"controller": "pca", "template": name, "recognised": recognised}
-    return GestureCommand(seq=seq, gesture=name, n_agents=int(n_agents), classes=classes, beta=2.0, mu=0.2, extra=extra)
+    return GestureCommand(seq=seq, gesture=name, n_agents=int(n_agents), classes=classes, beta=BETA, mu=MU, extra=extra)

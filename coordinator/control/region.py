@@ -17,6 +17,7 @@ import numpy as np
 
 from agent.protocol.command import GestureCommand, ParticleClass, Waypoint
 from coordinator.control.geometry import ImageToDomain
+from coordinator.control.material import BETA, MU
 
 # m^2 of silhouette per particle: 1.4 gave the best fidelity over 8 shared photos in a sweep of
 # {1.1, 1.4, 1.8, 2.4} (reference solver, 60 particles, 450 steps; min IoU 0.556, mean 0.590).
@@ -89,7 +90,7 @@ def region_command(
         classes.append(ParticleClass(f"region{rank}", float(counts[j]), (first, last)))
     extra = {"controller": "region", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
     return GestureCommand(
-        seq=seq, gesture=gesture, n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2, extra=extra
+        seq=seq, gesture=gesture, n_agents=int(n_agents), classes=tuple(classes), beta=BETA, mu=MU, extra=extra
     )
 
 
@@ -167,5 +168,5 @@ def body_region_command(
         classes.append(ParticleClass(name, float(counts[j]), tuple(route)))
     extra = {"controller": "region", "kind": "body", "centre": [float(centre[0]), float(centre[1])], "k": int(k)}
     return GestureCommand(
-        seq=seq, gesture=gesture[:64], n_agents=int(n_agents), classes=tuple(classes), beta=2.0, mu=0.2, extra=extra
+        seq=seq, gesture=gesture[:64], n_agents=int(n_agents), classes=tuple(classes), beta=BETA, mu=MU, extra=extra
     )
