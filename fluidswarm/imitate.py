@@ -29,6 +29,7 @@ from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from fluidswarm.run_config import AGENTS
 from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from swarmhost.supervisor import die_with_parent
 
@@ -117,7 +118,7 @@ class FileImitation:
     their radios make of the states they receive (agent/sph/radio.py; its draws seeded from the run's seed)."""
 
     input_path: str
-    agents: int = 60
+    agents: int = AGENTS
     steps: int = DEFAULT_STEPS
     controller: str = DEFAULT_CONTROLLER
     frame: int | None = None
@@ -265,7 +266,7 @@ class FileImitation:
 
 def imitate(
     input_path: str,
-    agents: int = 60,
+    agents: int = AGENTS,
     steps: int = DEFAULT_STEPS,
     out: str | Path = "out/imitate",
     controller: str = DEFAULT_CONTROLLER,

@@ -31,6 +31,7 @@ from coordinator.control.fidelity import fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
 from fluidswarm.imitate import score_formation, start_coordinator, write_target
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan
+from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
@@ -103,11 +104,11 @@ class CameraImitation:
     they receive, as for an input file (fluidswarm/imitate.py FileImitation)."""
 
     source: str
-    agents: int = 60
+    agents: int = AGENTS
     steps: int = DEFAULT_STEPS
     controller: str = DEFAULT_CONTROLLER
-    fps: float = 5.0
-    stall_seconds: float = 5.0
+    fps: float = CAMERA_FPS
+    stall_seconds: float = CAMERA_STALL_SECONDS
     subject: str = "person"
     kind: str = "camera"
     robot: RobotModel = POINT
@@ -218,12 +219,12 @@ class CameraImitation:
 
 def imitate_camera(
     source: str,
-    agents: int = 60,
+    agents: int = AGENTS,
     steps: int = DEFAULT_STEPS,
     out: str | Path = "out/imitate",
     controller: str = DEFAULT_CONTROLLER,
-    fps: float = 5.0,
-    stall_seconds: float = 5.0,
+    fps: float = CAMERA_FPS,
+    stall_seconds: float = CAMERA_STALL_SECONDS,
     live: str = "",
     name: str = "camera",
     ros2: str = "",

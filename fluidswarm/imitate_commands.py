@@ -12,6 +12,7 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS, agents_problem, check
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
@@ -38,8 +39,15 @@ def register(sub) -> None:
         help="--camera: a hand in front of a plain background, a person (static camera), or auto "
         "(decided from the first frames, said in the record)",
     )
-    p.add_argument("--fps", type=float, default=5.0, help="--camera: at most this many frames observed per second")
-    p.add_argument("--stall-seconds", type=float, default=5.0, help="--camera: no new frame for this long is an error")
+    p.add_argument(
+        "--fps", type=float, default=CAMERA_FPS, help="--camera: at most this many frames observed per second"
+    )
+    p.add_argument(
+        "--stall-seconds",
+        type=float,
+        default=CAMERA_STALL_SECONDS,
+        help="--camera: no new frame for this long is an error",
+    )
     p.add_argument(
         "--controller",
         default="fill",
@@ -48,7 +56,7 @@ def register(sub) -> None:
         "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force",
     )
     p.add_argument("--frame", type=int, default=None, help="which frame of a clip or folder to imitate (default 0)")
-    p.add_argument("--agents", type=int, default=60)
+    p.add_argument("--agents", type=int, default=AGENTS)
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default="out/imitate")
     add_workers_arguments(p)
@@ -70,8 +78,7 @@ def _coordinator(args) -> int:
 def _imitate(args) -> int:
     from coordinator.control.imitation_setup import DEFAULT_STEPS
 
-    if args.agents < 2:
-        raise UserError(f"--agents: must be >= 2, got {args.agents}")
+    check("--agents", agents_problem(args.agents))
     steps = DEFAULT_STEPS if args.steps is None else args.steps
     if steps < 1:
         raise UserError(f"--steps: must be >= 1, got {steps}")
@@ -84,6 +91,10 @@ def _imitate(args) -> int:
     hosts = workers_options(args)
     if hosts and args.camera is not None:
         raise UserError("--workers: a file only (--camera runs on one host)")
+    if not hosts:  # the run's own embedded router
+        from swarmhost.launcher import check_swarm_size
+
+        check_swarm_size(args.agents)
     live, ros2, bag = live_from_args(args), ros2_from_args(args), ros2_bag_from_args(args)
     robot = robot_model(args.robot)
     radio = radio_model(radio_options(args))

@@ -35,6 +35,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.recording.progress import Progress
+from fluidswarm.run_config import Sync
 from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
@@ -47,23 +48,6 @@ if TYPE_CHECKING:
 
 
 REALTIME_KEPT = 0.95  # a --realtime swarm below this realtime_factor could not keep up (said once)
-
-
-@dataclass(frozen=True)
-class Sync:
-    """How the agents keep time (docs/protocol.md): mode SyncMode.LOCKSTEP or .ASYNC (or its name); rate
-    [steps/s] each async agent aims for (default 12); max_age [s] after which an async neighbour state is not
-    used (default 1)."""
-
-    mode: SyncMode = SyncMode.LOCKSTEP
-    rate: float = 12.0
-    max_age: float = 1.0
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "mode", SyncMode(self.mode))  # a mode's name (CLI, scenario) is that mode
-
-    def spec(self) -> dict:
-        return {"mode": self.mode, "rate": self.rate, "max_age": self.max_age}
 
 
 @dataclass

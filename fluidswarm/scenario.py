@@ -20,6 +20,7 @@ from agent.sph.params import SPHParams
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
+from fluidswarm.run_config import AGENTS, Sync, agents_problem, check, positive_problem
 
 CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
 SYNC_MODES = MODES
@@ -114,13 +115,13 @@ class Scenario:
     frame: int = -1  # which frame of a clip/folder to imitate (-1: the first; see frame_steps)
     frame_steps: int = 0  # > 0: a gesture sequence, every frame shown for this many steps (thesis ch. 5)
     controller: str = "fill"
-    agents: int = 60
+    agents: int = AGENTS
     steps: int = 0  # 0: the experiment's default
     dt: float = 0.0  # 0: the experiment's default
     seed: int = 0
     sync: str = SyncMode.LOCKSTEP
-    async_rate: float = 12.0  # steps/s of each agent's own clock (sync = "async")
-    async_max_age: float = 1.0  # s: older neighbour states are not used (sync = "async")
+    async_rate: float = Sync.rate  # steps/s of each agent's own clock (sync = "async")
+    async_max_age: float = Sync.max_age  # s: older neighbour states are not used (sync = "async")
     neighbour_timeout: float = 0.0  # s a silent expected neighbour is waited for (0: the experiment's default)
     sph: dict = field(default_factory=dict)
     robot: RobotModel = POINT  # [robot]: kind, radius, v_max, a_max, omega_max, offset (agent/sph/robot.py)
@@ -248,8 +249,7 @@ def _scenario(raw: dict, path: Path) -> Scenario:
         raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
     if kw.get("sync", SyncMode.LOCKSTEP) not in SYNC_MODES:
         raise UserError(f"{file}: key 'sync': must be one of {SYNC_MODES}, got {kw['sync']!r}")
-    if not 1 <= kw.get("agents", 60) <= 2000:
-        raise UserError(f"{file}: key 'agents': must be in 1..2000, got {kw['agents']}")
+    check(f"{file}: key 'agents'", agents_problem(kw.get("agents", AGENTS)))
     if kw.get("steps", 0) < 0:
         raise UserError(f"{file}: key 'steps': must be >= 0, got {kw['steps']}")
     if kw.get("dt", 0.0) < 0:
@@ -261,8 +261,8 @@ def _scenario(raw: dict, path: Path) -> Scenario:
     if kw.get("frame_steps", 0) and kw.get("frame", -1) >= 0:
         raise UserError(f"{file}: key 'frame_steps': a gesture sequence shows every frame, drop 'frame'")
     for key in ("async_rate", "async_max_age"):
-        if key in kw and not kw[key] > 0:
-            raise UserError(f"{file}: key '{key}': must be > 0, got {kw[key]}")
+        if key in kw:
+            check(f"{file}: key '{key}'", positive_problem(kw[key]))
     if kw.get("neighbour_timeout", 0.0) < 0:
         raise UserError(f"{file}: key 'neighbour_timeout': must be > 0, got {kw['neighbour_timeout']}")
     if kw.get("experiment", Experiment.IMITATE) == Experiment.IMITATE and not kw.get("input"):

@@ -16,6 +16,7 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.run_config import SYNC_OPTION, agents_problem, check
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -38,7 +39,7 @@ def register(sub) -> None:
     p.add_argument("scenario", help="scenarios/NAME.toml (a file, or the name of a shipped scenario)")
     p.add_argument("--agents", type=int, help="override the scenario's number of agents")
     p.add_argument("--out", help="output folder (default: out/<scenario name>)")
-    p.add_argument("--sync", choices=SYNC_MODES, help="override the scenario's synchronisation mode")
+    p.add_argument(SYNC_OPTION, choices=SYNC_MODES, help="override the scenario's synchronisation mode")
     g = p.add_argument_group("failure injection (added to the scenario's own)")
     g.add_argument("--kill", action="append", default=[], metavar="K@STEP", help="SIGKILL K agents at STEP")
     g.add_argument(
@@ -221,6 +222,10 @@ def execute(
     from fluidswarm.scenario_verdict import judge
 
     agents = agents or sc.agents
+    if not hosts:  # the run's own embedded router (a scenario's agents and --agents alike)
+        from swarmhost.launcher import check_swarm_size
+
+        check_swarm_size(agents)
     baseline = None
     if sc.failures and (compare or sc.passing.min_fidelity_ratio) and sc.experiment == "imitate":
         clean = replace(sc, failures=(), passing=PassCriteria())
@@ -294,8 +299,8 @@ def _report(args, record: RunRecord, bag: Path | None = None) -> int:
 
 def _run(args) -> int:
     sc = load_scenario(args.scenario)
-    if args.agents is not None and not 1 <= args.agents <= 2000:
-        raise UserError(f"--agents: must be in 1..2000, got {args.agents}")
+    if args.agents is not None:
+        check("--agents", agents_problem(args.agents))
     extra = failures_from_args(args)
     if extra or args.sync:
         sc = replace(sc, failures=sc.failures + tuple(extra), sync=args.sync or sc.sync)

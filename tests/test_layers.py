@@ -27,6 +27,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
         "orchestration",
         (
             "fluidswarm.run",
+            "fluidswarm.run_config",
             "fluidswarm.imitate",
             "fluidswarm.imitate_camera",
             "fluidswarm.share_layout",

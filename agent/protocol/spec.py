@@ -31,6 +31,9 @@ class SyncMode(StrEnum):
 
 
 MODES = tuple(m.value for m in SyncMode)
+# What an async agent is told when its spec leaves them out: the crate's (spec.rs), the one declaration.
+RATE = native.SPEC_DEFAULT_RATE  # steps/s an async agent aims for
+MAX_AGE = native.SPEC_DEFAULT_MAX_AGE  # s: an older neighbour state is not used
 
 
 @dataclass(frozen=True)
@@ -98,8 +101,8 @@ class AgentSpec:
     join: bool = False
     state_key_ids: bool = False
     mode: str = SyncMode.LOCKSTEP
-    rate: float = native.SPEC_DEFAULT_RATE
-    max_age: float = native.SPEC_DEFAULT_MAX_AGE
+    rate: float = RATE
+    max_age: float = MAX_AGE
     neighbours: list = field(default_factory=list)
     robot: dict = field(default_factory=dict)
     radio: dict = field(default_factory=dict)

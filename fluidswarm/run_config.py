@@ -1,0 +1,70 @@
+"""A run's configuration at the edge: the defaults the commands and scenario files share, each declared here
+once, and the one check of each value a user gives, whichever edge it came through (an option of `imitate`,
+`run`, `demo`, `launch`, `verify`, or a key of a scenario file): the problem is worded here, the edge only
+names where it came from (`--agents: ...`, `FILE: key 'agents': ...`), one line, exit 1.
+
+Where the other defaults live, once each (tests/test_defaults.py fails when one is written again):
+- what an agent is told when its spec leaves a field out (the async `rate` and `max_age`, the timeouts): the
+  agent's crate, read by agent/protocol/spec.py (`RATE`, `MAX_AGE`, `NEIGHBOUR_TIMEOUT`);
+- the fluid (beta, mu, h, dt, ...): agent/sph/params.py `SPHParams`, checked equal to the crate's;
+- the imitation's materials: coordinator/control/material.py; its steps and controller:
+  coordinator/control/imitation_setup.py `DEFAULT_STEPS`, `DEFAULT_CONTROLLER`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from agent.protocol import keys
+from agent.protocol.errors import UserError
+from agent.protocol.spec import MAX_AGE, MODES, RATE, SyncMode
+
+AGENTS = 60  # an imitation's swarm (imitate, imitate --camera, a scenario file that names none)
+LAUNCH_AGENTS = 16  # launch's block
+VERIFY_AGENTS = 64  # verify's block against the reference driver
+CAMERA_FPS = 5.0  # imitate --camera: at most this many frames observed per second
+CAMERA_STALL_SECONDS = 5.0  # imitate --camera: no new frame for this long is an error
+MAX_AGENTS = keys.MAX_AGENTS  # every id has its key (docs/protocol.md); one host's router may hold fewer
+SYNC_OPTION = "--sync"  # the option of every command that picks it (launch also takes its old name --mode)
+
+
+def agents_problem(agents: int) -> str | None:
+    """What is wrong with a swarm of `agents` (None: nothing). An embedded router's own bound (access level)
+    is checked before it starts (swarmhost/launcher.py check_swarm_size)."""
+    if not 1 <= agents <= MAX_AGENTS:
+        return f"must be in 1..{MAX_AGENTS}, got {agents}"
+    return None
+
+
+def positive_problem(value: float) -> str | None:
+    """What is wrong with a value that must be a positive finite number (an async agent's rate, max_age)."""
+    if not (value > 0 and math.isfinite(value)):
+        return f"must be > 0 and finite, got {value}"
+    return None
+
+
+def check(where: str, problem: str | None) -> None:
+    """The edge's one line for a value's problem: UserError "<where>: <problem>" (nothing when None)."""
+    if problem is not None:
+        raise UserError(f"{where}: {problem}")
+
+
+@dataclass(frozen=True)
+class Sync:
+    """How the agents keep time (docs/protocol.md): mode SyncMode.LOCKSTEP or .ASYNC (or its name); rate
+    [steps/s] each async agent aims for; max_age [s] after which an async neighbour state is not used. The
+    defaults are the agent's own (agent/protocol/spec.py RATE, MAX_AGE)."""
+
+    mode: SyncMode = SyncMode.LOCKSTEP
+    rate: float = RATE
+    max_age: float = MAX_AGE
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mode", SyncMode(self.mode))  # a mode's name (CLI, scenario) is that mode
+
+    def spec(self) -> dict:
+        return {"mode": self.mode, "rate": self.rate, "max_age": self.max_age}
+
+
+__all__ = ["AGENTS", "LAUNCH_AGENTS", "MAX_AGENTS", "MODES", "SYNC_OPTION", "VERIFY_AGENTS", "Sync"]
