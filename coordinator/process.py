@@ -64,8 +64,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--run", required=True)
     ap.add_argument("--input", help="image, folder of frames, or video")
     ap.add_argument("--camera", help="DEVICE|URL|FILE: a live source, frames observed as they come")
-    ap.add_argument("--fps", type=float, default=5.0, help="camera: at most this many frames observed per second")
-    ap.add_argument("--stall-seconds", type=float, default=5.0, help="camera: no frame for this long is a stall")
+    ap.add_argument(
+        "--fps", type=float, default=StreamParams.fps, help="camera: at most this many frames observed per second"
+    )
+    ap.add_argument(
+        "--stall-seconds",
+        type=float,
+        default=StreamParams.stall_seconds,
+        help="camera: no frame for this long is a stall",
+    )
     ap.add_argument(
         "--subject",
         default="person",

@@ -8,7 +8,8 @@ Where the other defaults live, once each (tests/test_defaults.py fails when one 
   agent's crate, read by agent/protocol/spec.py (`RATE`, `MAX_AGE`, `NEIGHBOUR_TIMEOUT`);
 - the fluid (beta, mu, h, dt, ...): agent/sph/params.py `SPHParams`, checked equal to the crate's;
 - the imitation's materials: coordinator/control/material.py; its steps and controller:
-  coordinator/control/imitation_setup.py `DEFAULT_STEPS`, `DEFAULT_CONTROLLER`.
+  coordinator/control/imitation_setup.py `DEFAULT_STEPS`, `DEFAULT_CONTROLLER`;
+- a camera's pace (fps, stall seconds): perception/stream.py `StreamParams`.
 """
 
 from __future__ import annotations
@@ -19,12 +20,13 @@ from dataclasses import dataclass
 from agent.protocol import keys
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MAX_AGE, MODES, RATE, SyncMode
+from perception.stream import StreamParams
 
 AGENTS = 60  # an imitation's swarm (imitate, imitate --camera, a scenario file that names none)
 LAUNCH_AGENTS = 16  # launch's block
 VERIFY_AGENTS = 64  # verify's block against the reference driver
-CAMERA_FPS = 5.0  # imitate --camera: at most this many frames observed per second
-CAMERA_STALL_SECONDS = 5.0  # imitate --camera: no new frame for this long is an error
+CAMERA_FPS = StreamParams.fps  # imitate --camera: at most this many frames observed per second
+CAMERA_STALL_SECONDS = StreamParams.stall_seconds  # imitate --camera: no new frame for this long is an error
 MAX_AGENTS = keys.MAX_AGENTS  # every id has its key (docs/protocol.md); one host's router may hold fewer
 SYNC_OPTION = "--sync"  # the option of every command that picks it (launch also takes its old name --mode)
 

@@ -7,8 +7,10 @@ the crate's own decoder: a spec with every optional field left out, as the agent
 
 from __future__ import annotations
 
+import ast
 import json
 from dataclasses import asdict, fields
+from pathlib import Path
 
 from agent.protocol.spec import AgentSpec
 from agent.records import native
@@ -36,3 +38,91 @@ def test_the_crates_spec_fields_left_out_are_the_python_defaults():
     python = {f.name: getattr(AgentSpec("r", 0, [], 1, []), f.name) for f in fields(AgentSpec)}
     for name in ("timeout", "start_timeout", "drop_out", "secret", "join", "state_key_ids", "mode", "rate", "max_age"):
         assert rust[name] == python[name], name
+
+
+# --- no default written twice -----------------------------------------------------------------------------------
+
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
+ROOT = Path(__file__).resolve().parent.parent
+
+# (what, value) -> the one module that writes it as a literal (None: no Python module does, the crate declares it
+# and agent/protocol/spec.py reads it from there). `what` is a parameter, field, keyword, option or constant
+# named so (`agents`, `n_agents`, `--agents`, `AGENTS`, `LAUNCH_AGENTS`, ...).
+DECLARED: dict[tuple[str, float], str | None] = {
+    ("agents", 60): "fluidswarm/run_config.py",  # an imitation's swarm
+    ("agents", 16): "fluidswarm/run_config.py",  # launch's
+    ("agents", 64): "fluidswarm/run_config.py",  # verify's
+    ("beta", 2.0): "agent/sph/params.py",  # the fluid's stiffness (sph.rs: checked equal above)
+    ("mu", 0.2): "coordinator/control/material.py",  # the imitation's viscosity
+    ("rate", 12.0): None,  # an async agent's rate: spec.rs DEFAULT_RATE
+    ("max_age", 1.0): None,  # an async agent's max_age: spec.rs DEFAULT_MAX_AGE
+    ("fps", 5.0): "perception/stream.py",  # a camera's pace (StreamParams)
+    ("stall_seconds", 5.0): "perception/stream.py",
+}
+ALIASES = {"n_agents": "agents", "async_rate": "rate", "async_max_age": "max_age"}
+
+
+def _what(name: str) -> str | None:
+    """The watched default a name stands for: `--max-age` -> max_age, `LAUNCH_AGENTS` -> agents, ..."""
+    n = name.lstrip("-").replace("-", "_").lower()
+    n = ALIASES.get(n, n)
+    for what, _value in DECLARED:
+        if n == what or n.endswith("_" + what):
+            return what
+    return None
+
+
+def _number(node: ast.expr) -> float | None:
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float) and not isinstance(node.value, bool):
+        return node.value
+    return None
+
+
+def literal_defaults(source: str) -> list[tuple[str, float, int]]:
+    """(what, value, line) of each watched name given a number literal in `source`: a parameter's default, a
+    (dataclass) field or constant, a keyword argument, an argparse option's `default=`."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        pairs: list[tuple[str, ast.expr]] = []
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            a = node.args
+            positional = a.posonlyargs + a.args
+            pairs += [(p.arg, d) for p, d in zip(positional[len(positional) - len(a.defaults) :], a.defaults)]
+            pairs += [(p.arg, d) for p, d in zip(a.kwonlyargs, a.kw_defaults) if d is not None]
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.value is not None:
+            pairs.append((node.target.id, node.value))
+        elif isinstance(node, ast.Assign):
+            pairs += [(t.id, node.value) for t in node.targets if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.Call):
+            for kw in node.keywords:
+                if kw.arg is None:
+                    continue
+                pairs.append((kw.arg, kw.value))
+                if kw.arg == "default":  # add_argument("-n", "--agents", default=...)
+                    pairs += [
+                        (a.value, kw.value)
+                        for a in node.args
+                        if isinstance(a, ast.Constant) and isinstance(a.value, str)
+                    ]
+        for name, value in pairs:
+            what, number = _what(name), _number(value)
+            if what is not None and number is not None and (what, number) in DECLARED:
+                found.append((what, number, node.lineno))
+    return found
+
+
+def test_the_scan_finds_a_default_written_again():
+    again = "def imitate(agents: int = 60, beta=2.0):\n    p.add_argument('--max-age', type=float, default=1.0)\n"
+    assert sorted(literal_defaults(again)) == [("agents", 60, 1), ("beta", 2.0, 1), ("max_age", 1.0, 2)]
+    assert literal_defaults("def f(agents=AGENTS, steps=60):\n    g(beta=20.0)\n") == []
+
+
+def test_each_default_is_written_once_in_its_module():
+    where: dict[tuple[str, float], list[str]] = {key: [] for key in DECLARED}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            for what, value, line in literal_defaults(path.read_text()):
+                where[(what, value)].append(f"{path.relative_to(ROOT)}:{line}")
+    for key, home in DECLARED.items():
+        expected = [] if home is None else [home]
+        assert [w.rsplit(":", 1)[0] for w in where[key]] == expected, f"{key} written at {where[key]}"

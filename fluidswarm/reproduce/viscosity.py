@@ -23,7 +23,7 @@ RING2 = (1.5, 3.0)  # the next ones: spacing 2, sqrt(5), sqrt(8), 3 (beyond the 
 MUS = (0.0, 0.5, 2.0)
 
 
-def drag_block(mu: float, beta: float = 2.0):
+def drag_block(mu: float, beta: float = SPHParams.beta):
     """(states, controls, params, pushed index) of the Fig. 4.14 set-up."""
     params = SPHParams(mu=mu, domain=(-100.0, 100.0, -100.0, 100.0), border=Border.REFLECT)
     pos = lattice(99, 11)
