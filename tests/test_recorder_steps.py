@@ -1,5 +1,8 @@
-"""The recorder's step release (fluidswarm/recording/steps.py) on a clock of our own: a fast agent far ahead
-of the others must not make their states late stragglers; a silent (frozen) agent must not hold the file."""
+"""The recorder's step release (fluidswarm/recording/steps.py StepAssembly, no I/O: the time is an argument) fed
+message sequences on a clock of our own: a fast agent far ahead of the others must not make their states late
+stragglers; a silent (frozen) agent must not hold the file. Two tests drive its zenoh shell
+(fluidswarm/recording/recorder.py Recorder) on the wall clock: the states still in flight at its end, a stop
+signal during a write."""
 
 from __future__ import annotations
 
@@ -16,37 +19,70 @@ from agent.protocol.wire import encode_state
 from agent.sph.particle import NFIELDS
 from fluidswarm.recording import steps
 from fluidswarm.recording.reader import check, load_run
-from fluidswarm.recording.recorder import record
+from fluidswarm.recording.recorder import Recorder, record
 from fluidswarm.recording.writer import RunWriter
 
 RUN = "r1"
 
 
 class Clock:
+    """The made-up time the tests hand the core with each input."""
+
     def __init__(self):
         self.t = 100.0
 
-    def __call__(self) -> float:
-        return self.t
+
+class Fed:
+    """A StepAssembly and the clock its inputs are fed on; `pump` is what is due now, `finish` the end."""
+
+    def __init__(self, core: steps.StepAssembly, clock: Clock):
+        self.core, self.clock = core, clock
+
+    def __getattr__(self, name):
+        return getattr(self.core, name)
+
+    def pump(self, _timeout: float = 0.0) -> None:
+        self.core.tick(self.clock.t)
+
+    def finish(self, **_waits) -> None:
+        self.core.end(self.clock.t)
 
 
 @pytest.fixture
-def recorder(tmp_path, monkeypatch):
+def recorder(tmp_path):
     clock = Clock()
-    monkeypatch.setattr(steps.time, "monotonic", clock)
     writer = RunWriter(tmp_path / "r.mcap", {"run": RUN})
-    rec = steps.Recorder(RUN, writer, dt=0.01)
+    rec = Fed(steps.StepAssembly(RUN, writer, dt=0.01, now=clock.t), clock)
     for j in range(3):
-        rec.inbox.put((1, (keys.alive_key(RUN, j), True)))
-    rec.pump(0.0)
+        rec.heard_alive(keys.alive_key(RUN, j), True, clock.t)
+    rec.pump()
     yield rec, clock, tmp_path / "r.mcap"
     writer.close()
 
 
-def post(rec, agent: int, step: int) -> None:
+@pytest.fixture
+def shell(tmp_path):
+    """The zenoh shell on the wall clock (no session: its queue is fed as zenoh's callbacks would)."""
+    writer = RunWriter(tmp_path / "r.mcap", {"run": RUN})
+    rec = Recorder(RUN, writer, dt=0.01)
+    for j in range(3):
+        rec.inbox.put((1, (keys.alive_key(RUN, j), True)))
+    rec.pump(0.0)
+    yield rec, None, tmp_path / "r.mcap"
+    writer.close()
+
+
+def state_record(agent: int, step: int) -> bytes:
     state = np.zeros(NFIELDS)
     state[0], state[1], state[4] = agent, step * 0.01, 1.0  # x, y, rho (> 0: a real density)
-    rec.inbox.put((0, (encode_state(agent, step, state), keys.cell_key(RUN, 0, 0))))
+    return encode_state(agent, step, state)
+
+
+def post(rec, agent: int, step: int) -> None:
+    if isinstance(rec, Recorder):  # the shell: onto its queue
+        rec.inbox.put((0, (state_record(agent, step), keys.cell_key(RUN, 0, 0))))
+    else:
+        rec.heard_state(state_record(agent, step), keys.cell_key(RUN, 0, 0), rec.clock.t)
 
 
 def recorded(path) -> dict[int, set[int]]:
@@ -85,8 +121,8 @@ def test_a_silent_agent_is_written_off_after_release_seconds(recorder):
     assert rec.next_step <= 40
 
 
-def test_the_last_states_still_in_flight_when_told_to_stop_are_written_and_scored(recorder):
-    rec, _clock, path = recorder
+def test_the_last_states_still_in_flight_when_told_to_stop_are_written_and_scored(shell):
+    rec, _clock, path = shell
     for k in range(10):
         for j in range(3):
             post(rec, j, k)
@@ -128,10 +164,10 @@ def test_a_frozen_agent_is_left_out_of_the_scored_formation_as_before(recorder):
     assert rec.last_positions[:, 1] == pytest.approx([0.29] * 2)
 
 
-def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(recorder):
+def test_a_stop_signal_landing_while_a_step_is_written_loses_nothing(shell):
     """The recorder process's SIGTERM (the launcher stops it at the run's end) arrives wherever its main thread
     is; here, inside the write of step 5. The step being written and the ones after it must all be in the file."""
-    rec, _clock, path = recorder
+    rec, _clock, path = shell
     saved = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
     write_states = rec.writer.write_states
 
@@ -191,13 +227,13 @@ def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_the
             post(rec, j, s)
     # the agent's own event carries its agent and step into the file's Log fields
     timeout = b'{"v":1,"id":2,"step":3,"event":"neighbour_timeout","neighbours":[1]}'
-    rec.inbox.put((2, (timeout, keys.event_key(RUN, 2))))
-    rec.inbox.put((4, (report(0, "done"), keys.final_key(RUN, 0))))
-    rec.inbox.put((4, (report(1, "stopped"), keys.final_key(RUN, 1))))
-    rec.inbox.put((4, (report(1, "done"), keys.final_key(RUN, 2))))  # under another agent's key: dropped
+    rec.heard_event(timeout, keys.event_key(RUN, 2), clock.t)
+    rec.heard_final(report(0, "done"), keys.final_key(RUN, 0), clock.t)
+    rec.heard_final(report(1, "stopped"), keys.final_key(RUN, 1), clock.t)
+    rec.heard_final(report(1, "done"), keys.final_key(RUN, 2), clock.t)  # under another agent's key: dropped
     rec.pump(0.0)
     for j in range(3):  # the tokens go; agent 2 sent no report of its own: it died
-        rec.inbox.put((1, (keys.alive_key(RUN, j), False)))
+        rec.heard_alive(keys.alive_key(RUN, j), False, clock.t)
     rec.pump(0.0)
     clock.t += steps.REPORT_GRACE_SECONDS + 0.1
     rec.pump(0.0)
@@ -233,11 +269,11 @@ def test_a_routers_batch_is_taken_record_by_record_and_a_bad_one_is_counted(reco
         state[0], state[1], state[4] = agent, step * 0.01, rho
         return encode_state(agent, step, state)
 
-    rec.inbox.put((5, (b"".join(record(j, 0) for j in range(3)), batch_key)))
-    rec.inbox.put((5, (record(0, 1) + record(1, 1, rho=-1.0) + record(2, 1), batch_key)))  # agent 1's is bad
-    rec.inbox.put((5, (record(1, 1), f"{keys.PREFIX}/{RUN}/batch/*")))  # a wildcard: no router's key
-    rec.inbox.put((5, (record(1, 1), f"{keys.PREFIX}/other-run/batch/5a3f")))
-    rec.inbox.put((5, (record(1, 1)[:60], batch_key)))
+    rec.heard_batch(b"".join(record(j, 0) for j in range(3)), batch_key, clock.t)
+    rec.heard_batch(record(0, 1) + record(1, 1, rho=-1.0) + record(2, 1), batch_key, clock.t)  # agent 1's is bad
+    rec.heard_batch(record(1, 1), f"{keys.PREFIX}/{RUN}/batch/*", clock.t)  # a wildcard: no router's key
+    rec.heard_batch(record(1, 1), f"{keys.PREFIX}/other-run/batch/5a3f", clock.t)
+    rec.heard_batch(record(1, 1)[:60], batch_key, clock.t)
     rec.pump(0.0)
     assert rec.rejected == 4
     for j in range(3):

@@ -8,7 +8,8 @@ state of theirs gives a `started` event). A killed agent's last state is written
 SIGINT/SIGTERM finish the file (pending steps flushed, MCAP footer written).
 
 With `--live HOST:PORT` it also serves the run to Foxglove as it happens (recording/live.py). This module is
-the process (arguments, subscriptions, signals); what it does with each message is steps.py's `Recorder`.
+the process (arguments, subscriptions, signals) and `Recorder`, the zenoh shell of the step assembly: what it
+does with each message is steps.py's `StepAssembly`, which has no I/O of its own.
 
 `python -m fluidswarm.recording.recorder --connect tcp/... --run NAME --out FILE.mcap [--metadata JSON] [--live H:P]`
 """
@@ -18,9 +19,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import queue
 import signal
 import sys
 import threading
+import time
 
 import numpy as np
 import zenoh
@@ -36,8 +39,85 @@ from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.contacts import ContactCounter
 from fluidswarm.recording.coordinator_events import CoordinatorEvents
 from fluidswarm.recording.live import LiveServer, parse_address
-from fluidswarm.recording.steps import Recorder
+from fluidswarm.recording.steps import BATCH_GRACE_SECONDS, FINISH_LIMIT_SECONDS, FINISH_QUIET_SECONDS, StepAssembly
 from fluidswarm.recording.writer import RunWriter
+
+
+class Recorder(StepAssembly):
+    """The step assembly in the recorder process: zenoh's callbacks decode nothing and only enqueue (on zenoh's
+    receiving thread); the main thread drains the queue into the core, each message with the time it is taken
+    (`pump`), and at the end takes what is still on its way (`finish`)."""
+
+    def __init__(self, run: str, writer: RunWriter, dt: float, contacts=None):
+        super().__init__(run, writer, dt, contacts, time.monotonic())
+        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
+
+    # callbacks: decode nothing, enqueue
+    def on_state(self, sample) -> None:
+        self.inbox.put((0, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_batch(self, sample) -> None:
+        self.inbox.put((5, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_alive(self, sample) -> None:
+        self.inbox.put((1, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
+
+    def on_event(self, sample) -> None:
+        self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_final(self, sample) -> None:
+        self.inbox.put((4, (sample.payload.to_bytes(), str(sample.key_expr))))
+
+    def on_command(self, sample) -> None:
+        # the exact key only: a put on a wildcard key (`fluidswarm/**`) reaches this subscriber too
+        if str(sample.key_expr) == keys.command_key(self.run):
+            self.inbox.put((3, sample.payload.to_bytes()))
+
+    def handle(self, item) -> None:
+        """One queued message into the core, with the time it is taken."""
+        kind, data = item
+        now = time.monotonic()
+        if kind == 0:
+            self.heard_state(data[0], data[1], now)
+        elif kind == 5:
+            self.heard_batch(data[0], data[1], now)
+        elif kind == 1:
+            self.heard_alive(data[0], data[1], now)
+        elif kind == 2:
+            self.heard_event(data[0], data[1], now)
+        elif kind == 3:
+            self.heard_command(data, now)
+        elif kind == 4:
+            self.heard_final(data[0], data[1], now)
+
+    def pump(self, timeout: float) -> None:
+        """What came within `timeout` s (less while an agent is leaving), then what is due."""
+        try:
+            item = self.inbox.get(timeout=timeout if not self.leaving else min(timeout, BATCH_GRACE_SECONDS))
+        except queue.Empty:
+            self.tick(time.monotonic())
+            return
+        self.handle(item)
+        while True:
+            try:
+                self.handle(self.inbox.get_nowait())
+            except queue.Empty:
+                break
+        self.tick(time.monotonic())
+
+    def finish(self, quiet: float = FINISH_QUIET_SECONDS, limit: float = FINISH_LIMIT_SECONDS) -> None:
+        """Write everything heard, the last states still in flight included: told to stop once the agents have
+        reported, the recorder still has their last steps on the way (it runs a step or two behind at
+        N = 300), so it takes what arrives until `quiet` s pass without a message (at most `limit` s)."""
+        deadline = time.monotonic() + limit
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                self.handle(self.inbox.get(timeout=min(quiet, left)))
+            except queue.Empty:
+                break
+        for _ in range(self.inbox.qsize()):  # a run stopped mid-stream: what is queued now, not what follows
+            self.handle(self.inbox.get_nowait())
+        self.end(time.monotonic())
 
 
 def robot_of(metadata: dict) -> RobotModel:

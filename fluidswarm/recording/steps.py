@@ -4,17 +4,19 @@ event and count as stopped; a later state of theirs gives a `started` event), li
 `started`/`died` events (a killed agent's last state is written before its `died` event; an agent whose final
 report says it reached its last step, or was told to stop, `finished`/`stopped` instead: its token's removal is
 its leaving, not a death), the agents' own events (with their agent and step) and the gesture command passed
-through. Zenoh callbacks only enqueue; `pump` does the work on the
-recorder's main thread (fluidswarm/recording/recorder.py, the process)."""
+through.
+
+`StepAssembly` is that logic without I/O of its own: no session, no queue, no clock. Each input carries the time
+(`now`, s on one monotonic clock) and what it decides goes to its `writer` (a RunWriter: states, events, command,
+bodies). Its shell is the recorder process's `Recorder` (fluidswarm/recording/recorder.py): zenoh callbacks
+enqueue, its main thread drains the queue into the core with the time; tests feed the core message sequences with
+made-up times (tests/test_recorder_steps.py)."""
 
 from __future__ import annotations
 
 import json
-import queue
-import time
 
 import numpy as np
-import zenoh
 
 from agent.protocol import keys
 from agent.protocol.events import EventKind, decode_event
@@ -46,15 +48,17 @@ BATCH_GRACE_SECONDS = 0.1
 LEFT = {Status.DONE: ("finished", "finished"), Status.STOPPED: ("stopped", "was stopped")}  # kind, wording
 
 
-class Recorder:
-    def __init__(self, run: str, writer: RunWriter, dt: float, contacts=None):
-        """`contacts`: a fluidswarm.recording.contacts.ContactCounter fed every step written (robots), or None."""
+class StepAssembly:
+    """The recorder's step assembly of one run (module docstring); `dt` [s] a step's simulated time."""
+
+    def __init__(self, run: str, writer: RunWriter, dt: float, contacts=None, now: float = 0.0):
+        """`contacts`: a fluidswarm.recording.contacts.ContactCounter fed every step written (robots), or None;
+        `now`: the time the recording starts (s, the clock of every later input)."""
         self.run = run
         self.contacts = contacts
         self.writer = writer
         self.dt = dt
         self.body_every = max(1, round(BODY_SECONDS / dt)) if dt > 0 else 1  # steps between body drawings
-        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
         self.pending: dict[int, dict[int, tuple]] = {}
         self.alive: set[int] = set()
         self.stopped: set[int] = set()  # alive but not reporting (frozen): waiting for them is pointless
@@ -76,28 +80,7 @@ class Recorder:
         self.next_step = 0
         self.newest = -1
         self.rejected = 0
-        self.last_message = time.monotonic()
-
-    # callbacks: decode nothing, enqueue
-    def on_state(self, sample) -> None:
-        self.inbox.put((0, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_batch(self, sample) -> None:
-        self.inbox.put((5, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_alive(self, sample) -> None:
-        self.inbox.put((1, (str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)))
-
-    def on_event(self, sample) -> None:
-        self.inbox.put((2, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_final(self, sample) -> None:
-        self.inbox.put((4, (sample.payload.to_bytes(), str(sample.key_expr))))
-
-    def on_command(self, sample) -> None:
-        # the exact key only: a put on a wildcard key (`fluidswarm/**`) reaches this subscriber too
-        if str(sample.key_expr) == keys.command_key(self.run):
-            self.inbox.put((3, sample.payload.to_bytes()))
+        self.last_message = now  # when the last input came
 
     def t(self, step: int) -> float:
         return max(step, 0) * self.dt
@@ -110,85 +93,95 @@ class Recorder:
         first, t0, last, t1 = self.span
         return (last - first) * self.dt / (t1 - t0)
 
-    def handle(self, item) -> None:
-        kind, data = item
-        self.last_message = time.monotonic()
-        if kind == 0:
-            data, key = data
-            decoded, _reason = decode_state(data)
-            # The key's id is the publisher's (the router's access control, docs/security.md); a record
-            # naming another agent is a forgery.
-            if decoded is None or not keys.state_key_vouches(key, decoded[0]):
+    # --- inputs: each one the bytes (or token change) and key heard, and when ---------------------------------
+
+    def heard_state(self, data: bytes, key: str, now: float) -> None:
+        """A state record on `key`."""
+        self.last_message = now
+        decoded, _reason = decode_state(data)
+        # The key's id is the publisher's (the router's access control, docs/security.md); a record
+        # naming another agent is a forgery.
+        if decoded is None or not keys.state_key_vouches(key, decoded[0]):
+            self.rejected += 1
+            return
+        self._state(*decoded)
+
+    def heard_batch(self, data: bytes, key: str, now: float) -> None:
+        """A router's relay's batch (docs/protocol.md "State batches"): whole state records, each taken from its
+        sender's own key and checked against it by the relay; on an exact batch key, which only routers may
+        put. Each record is still decoded (untrusted bytes, whoever vouched)."""
+        self.last_message = now
+        records = batch_records(data) if keys.is_batch_key(self.run, key) else None
+        if records is None:
+            self.rejected += 1
+            return
+        for record in records:
+            decoded, _reason = decode_state(record)
+            if decoded is None:
                 self.rejected += 1
-                return
-            self._state(*decoded)
-        elif kind == 5:
-            # A router's relay's batch (docs/protocol.md "State batches"): whole state records, each taken
-            # from its sender's own key and checked against it by the relay; on an exact batch key, which only
-            # routers may put. Each record is still decoded (untrusted bytes, whoever vouched).
-            data, key = data
-            records = batch_records(data) if keys.is_batch_key(self.run, key) else None
-            if records is None:
-                self.rejected += 1
-                return
-            for record in records:
-                decoded, _reason = decode_state(record)
-                if decoded is None:
-                    self.rejected += 1
-                else:
-                    self._state(*decoded)
-        elif kind == 1:
-            key, up = data
-            j = keys.id_from_key(key)
-            if j is None:
-                return
-            if up:
-                if j not in self.alive and self.newest >= 0 and j not in self.last_step:
-                    self.joining.add(j)
-                elif j not in self.alive:
-                    self.alive.add(j)
-                    self.writer.write_event(
-                        self.t(self.next_step),
-                        "info",
-                        f"agent/{j}",
-                        f"agent {j} started",
-                        kind="started",
-                        agent=j,
-                        step=self.next_step if self.newest >= 0 else 0,
-                    )
-            elif j in self.joining:
-                self.joining.discard(j)
-            elif j in self.alive:
-                # Its last states may still be in a router's batch (up to BATCH_GRACE_SECONDS behind its token):
-                # it stays expected until then, and its death is placed after the last state heard by then.
-                self.leaving.setdefault(j, time.monotonic())
-        elif kind == 2:
-            data, key = data
-            ev = decode_event(data)
-            if ev is None or ev.id != keys.id_from_key(key):
-                self.rejected += 1  # malformed, or under another agent's key
-                return
-            if ev.kind is not EventKind.STARTED:  # lifecycle 'started' comes from liveliness, with its step
-                level = "warning" if ev.kind in (EventKind.NEIGHBOUR_TIMEOUT, EventKind.FELL_BEHIND) else "info"
-                text = json.dumps(ev.as_json(), sort_keys=True)[:2000]
+            else:
+                self._state(*decoded)
+
+    def heard_alive(self, key: str, up: bool, now: float) -> None:
+        """An agent's alive token on `key` appeared (`up`) or went."""
+        self.last_message = now
+        j = keys.id_from_key(key)
+        if j is None:
+            return
+        if up:
+            if j not in self.alive and self.newest >= 0 and j not in self.last_step:
+                self.joining.add(j)
+            elif j not in self.alive:
+                self.alive.add(j)
                 self.writer.write_event(
-                    self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value, agent=ev.id, step=ev.step
+                    self.t(self.next_step),
+                    "info",
+                    f"agent/{j}",
+                    f"agent {j} started",
+                    kind="started",
+                    agent=j,
+                    step=self.next_step if self.newest >= 0 else 0,
                 )
-        elif kind == 3:
-            try:
-                text = data.decode("utf-8")
-                json.loads(text)
-            except (UnicodeDecodeError, ValueError):
-                self.rejected += 1
-                return
-            self.writer.write_command(self.t(self.next_step), text)
-        elif kind == 4:
-            data, key = data
-            report = decode_report(data)
-            if report is None or report.id != keys.id_from_key(key):
-                self.rejected += 1  # malformed, or under another agent's key
-                return
-            self.reported[report.id] = report.status
+        elif j in self.joining:
+            self.joining.discard(j)
+        elif j in self.alive:
+            # Its last states may still be in a router's batch (up to BATCH_GRACE_SECONDS behind its token):
+            # it stays expected until then, and its death is placed after the last state heard by then.
+            self.leaving.setdefault(j, now)
+
+    def heard_event(self, data: bytes, key: str, now: float) -> None:
+        """An agent's own event on its event key."""
+        self.last_message = now
+        ev = decode_event(data)
+        if ev is None or ev.id != keys.id_from_key(key):
+            self.rejected += 1  # malformed, or under another agent's key
+            return
+        if ev.kind is not EventKind.STARTED:  # lifecycle 'started' comes from liveliness, with its step
+            level = "warning" if ev.kind in (EventKind.NEIGHBOUR_TIMEOUT, EventKind.FELL_BEHIND) else "info"
+            text = json.dumps(ev.as_json(), sort_keys=True)[:2000]
+            self.writer.write_event(
+                self.t(ev.step), level, f"agent/{ev.id}", text, kind=ev.kind.value, agent=ev.id, step=ev.step
+            )
+
+    def heard_command(self, data: bytes, now: float) -> None:
+        """The gesture command (on its exact key), passed through as its JSON text."""
+        self.last_message = now
+        try:
+            text = data.decode("utf-8")
+            json.loads(text)
+        except (UnicodeDecodeError, ValueError):
+            self.rejected += 1
+            return
+        self.writer.write_command(self.t(self.next_step), text)
+
+    def heard_final(self, data: bytes, key: str, now: float) -> None:
+        """An agent's final report: how it ended (finished or stopped is a leaving, not a death)."""
+        self.last_message = now
+        report = decode_report(data)
+        if report is None or report.id != keys.id_from_key(key):
+            self.rejected += 1  # malformed, or under another agent's key
+            return
+        self.reported[report.id] = report.status
 
     def _state(self, j: int, step: int, cls: int, values) -> None:
         """One decoded state record, vouched for: kept for its step's message."""
@@ -207,7 +200,7 @@ class Recorder:
                 step=step,
             )
         if step not in self.pending:
-            self.first_seen[step] = seen = time.monotonic()
+            self.first_seen[step] = seen = self.last_message  # when this state came
             if self.span is None:
                 self.span = (step, seen, step, seen)
             elif step > self.span[2]:
@@ -222,9 +215,8 @@ class Recorder:
                 self.t(step), "info", f"agent/{j}", f"agent {j} reports again", kind="started", agent=j, step=step
             )
 
-    def _take_leavers(self, force: bool = False) -> None:
+    def _take_leavers(self, now: float, force: bool = False) -> None:
         """The agents whose token went BATCH_GRACE_SECONDS ago (all of them with `force`) leave the swarm."""
-        now = time.monotonic()
         for j, since in list(self.leaving.items()):
             if not force and now - since < BATCH_GRACE_SECONDS:
                 continue
@@ -234,10 +226,9 @@ class Recorder:
             # Its last state must be written before its death: the event waits for that step.
             self.dead_at[j] = self.last_step.get(j, self.next_step - 1) + 1
             self.gone_at[j] = since
-        self._write_deaths()
+        self._write_deaths(now)
 
-    def _write_deaths(self, force: bool = False) -> None:
-        now = time.monotonic()
+    def _write_deaths(self, now: float, force: bool = False) -> None:
         for j, first_missing in list(self.dead_at.items()):
             if first_missing > self.next_step:
                 continue
@@ -272,10 +263,9 @@ class Recorder:
         dying = {j for j, s in self.dead_at.items() if step < s}
         return (self.alive | dying) - self.stopped
 
-    def _ready(self, step: int) -> bool:
+    def _ready(self, step: int, now: float) -> bool:
         have = self.pending.get(step, {})
         waiting = self._expected_at(step) - set(have)
-        now = time.monotonic()
         since = self.first_seen.get(step, now)  # an agent never heard of is timed from the step's first state
         return (
             all(now - self.heard_at.get(j, since) >= RELEASE_SECONDS for j in waiting)
@@ -356,45 +346,24 @@ class Recorder:
             return self.last_complete[1]
         return self.last_written[1]
 
-    def _flush(self, upto: int | None = None, force: bool = False) -> None:
+    def _flush(self, now: float, force: bool = False) -> None:
         while self.next_step <= self.newest:
-            if upto is not None and self.next_step > upto:
-                return
-            if not force and upto is None and not self._ready(self.next_step):
+            if not force and not self._ready(self.next_step, now):
                 return
             self._write_step(self.next_step)
             self.next_step += 1
-            self._write_deaths()
+            self._write_deaths(now)
 
-    def pump(self, timeout: float) -> None:
-        try:
-            item = self.inbox.get(timeout=timeout if not self.leaving else min(timeout, BATCH_GRACE_SECONDS))
-        except queue.Empty:
-            self._take_leavers()
-            self._flush()
-            return
-        self.handle(item)
-        while True:
-            try:
-                self.handle(self.inbox.get_nowait())
-            except queue.Empty:
-                break
-        self._take_leavers()
-        self._flush()
+    # --- time ----------------------------------------------------------------------------------------------
 
-    def finish(self, quiet: float = FINISH_QUIET_SECONDS, limit: float = FINISH_LIMIT_SECONDS) -> None:
-        """Write everything heard, the last states still in flight included: told to stop once the agents have
-        reported, the recorder still has their last steps on the way (it runs a step or two behind at
-        N = 300), so it takes what arrives until `quiet` s pass without a message (at most `limit` s)."""
-        deadline = time.monotonic() + limit
-        while (left := deadline - time.monotonic()) > 0:
-            try:
-                self.handle(self.inbox.get(timeout=min(quiet, left)))
-            except queue.Empty:
-                break
-        for _ in range(self.inbox.qsize()):  # a run stopped mid-stream: what is queued now, not what follows
-            self.handle(self.inbox.get_nowait())
-        self._take_leavers(force=True)
-        self._flush(force=True)
+    def tick(self, now: float) -> None:
+        """What is due at `now`: agents whose token went leave, steps ready (or long waited for) are written."""
+        self._take_leavers(now)
+        self._flush(now)
+
+    def end(self, now: float) -> None:
+        """The recording ends: every agent that left leaves, every step heard is written, every death said."""
+        self._take_leavers(now, force=True)
+        self._flush(now, force=True)
         self.next_step = max(self.next_step, max(self.dead_at.values(), default=0))
-        self._write_deaths(force=True)
+        self._write_deaths(now, force=True)
