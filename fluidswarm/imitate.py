@@ -29,8 +29,7 @@ from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
-from fluidswarm.run_config import AGENTS
-from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
+from fluidswarm.run_config import AGENTS, RunConfig
 from swarmhost.supervisor import die_with_parent
 
 PERCEIVE_SECONDS = 300.0  # s for the coordinator to perceive a file (a long clip on a loaded 2-core machine)
@@ -264,49 +263,35 @@ class FileImitation:
         )
 
 
-def imitate(
-    input_path: str,
-    agents: int = AGENTS,
-    steps: int = DEFAULT_STEPS,
-    out: str | Path = "out/imitate",
-    controller: str = DEFAULT_CONTROLLER,
-    name: str = "imitate",
-    frame: int | None = None,
-    live: str = "",
-    ros2: str = "",
-    progress: bool = False,
-    robot: RobotModel = POINT,
-    radio: RadioModel = PERFECT,
-    connect: str | None = None,
-    run: str | None = None,
-    workers: int = 0,
-    auth_file: str = "",
-    workers_timeout: float = WORKERS_TIMEOUT,
-    realtime: bool = False,
-    shares: str = SHARE_KINDS[0],
-) -> RunRecord:
-    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated by `agents` agent processes; with `workers`
-    (and `connect`, `run`, the users file) this host runs region 1 of 1 + workers and `fluidswarm worker`s on
-    other hosts the rest (docs/multi-host.md)."""
+def run_options(config: RunConfig, realtime: bool | None = None, progress: bool = False) -> RunOptions:
+    """What the `Run` of an imitation needs of its configuration (`realtime`: None for the configuration's)."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 
-    kind = FileImitation(str(input_path), agents, steps, controller, frame, robot=robot, radio=radio)
-    options = RunOptions(
-        name,
-        Path(out),
+    r, a = config.recording, config.access
+    return RunOptions(
+        r.name,
+        r.out,
         NEIGHBOUR_TIMEOUT.imitation,
-        live=live,
-        ros2=ros2,
+        live=r.live,
+        ros2=r.ros2,
         commands=True,
         progress=progress,
-        run=run,
-        connect=connect,
-        auth_file=auth_file,
-        workers=workers,
-        workers_timeout=workers_timeout,
-        realtime=realtime,
-        shares=shares,
+        run=a.run,
+        connect=a.connect,
+        auth_file=a.auth_file,
+        workers=a.workers,
+        workers_timeout=a.workers_timeout,
+        realtime=config.realtime if realtime is None else realtime,
+        shares=a.shares,
     )
-    with Run(kind, options) as this:
+
+
+def imitate(input_path: str, config: RunConfig, frame: int | None = None, progress: bool = False) -> RunRecord:
+    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated as `config` says (fluidswarm/run_config.py);
+    with workers in its access (and connect, run, the users file) this host runs region 1 of 1 + workers and
+    `fluidswarm worker`s on other hosts the rest (docs/multi-host.md)."""
+    c = config
+    kind = FileImitation(str(input_path), c.agents, c.steps, c.controller, frame, robot=c.robot, radio=c.radio)
+    with Run(kind, run_options(config, progress=progress)) as this:
         kind.drive(this)
     return this.record

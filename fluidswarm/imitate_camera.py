@@ -22,16 +22,16 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
+from agent.protocol.spec import SyncMode
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator import handover
 from coordinator.camera import load_observation
 from coordinator.control.fidelity import fidelity
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
-from fluidswarm.imitate import score_formation, start_coordinator, write_target
-from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan
-from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS
+from fluidswarm.imitate import run_options, score_formation, start_coordinator, write_target
+from fluidswarm.run import Run, RunRecord, SwarmPlan
+from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS, Access, Camera, RunConfig
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
@@ -217,38 +217,22 @@ class CameraImitation:
         score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}", score)
 
 
-def imitate_camera(
-    source: str,
-    agents: int = AGENTS,
-    steps: int = DEFAULT_STEPS,
-    out: str | Path = "out/imitate",
-    controller: str = DEFAULT_CONTROLLER,
-    fps: float = CAMERA_FPS,
-    stall_seconds: float = CAMERA_STALL_SECONDS,
-    live: str = "",
-    name: str = "camera",
-    ros2: str = "",
-    ros2_router: str = "",
-    subject: str = "person",
-    robot: RobotModel = POINT,
-    radio: RadioModel = PERFECT,
-) -> RunRecord:
-    """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]`, paced to the wall clock."""
+def imitate_camera(camera: Camera, config: RunConfig) -> RunRecord:
+    """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]` as `config` says, paced to the wall
+    clock (on this host only: a camera's run has no workers)."""
+    c = config
     kind = CameraImitation(
-        source,
-        agents,
-        steps,
-        controller,
-        fps,
-        stall_seconds,
-        subject,
-        robot=robot,
-        radio=radio,
-        ros2_router=ros2_router,
+        camera.source,
+        c.agents,
+        c.steps,
+        c.controller,
+        camera.fps,
+        camera.stall_seconds,
+        camera.subject,
+        robot=c.robot,
+        radio=c.radio,
+        ros2_router=camera.ros2_router,
     )
-    with Run(
-        kind,
-        RunOptions(name, Path(out), NEIGHBOUR_TIMEOUT.imitation, live=live, ros2=ros2, commands=True, realtime=True),
-    ) as run:
+    with Run(kind, run_options(replace(config, access=Access()), realtime=True)) as run:
         kind.drive(run)
     return run.record

@@ -12,7 +12,17 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS, agents_problem, check
+from fluidswarm.run_config import (
+    AGENTS,
+    CAMERA_FPS,
+    CAMERA_STALL_SECONDS,
+    Access,
+    Camera,
+    Recording,
+    RunConfig,
+    agents_problem,
+    check,
+)
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
@@ -58,7 +68,7 @@ def register(sub) -> None:
     p.add_argument("--frame", type=int, default=None, help="which frame of a clip or folder to imitate (default 0)")
     p.add_argument("--agents", type=int, default=AGENTS)
     p.add_argument("--steps", type=int, default=None)
-    p.add_argument("--out", default="out/imitate")
+    p.add_argument("--out", default=str(Recording.out))
     add_workers_arguments(p)
     add_robot_argument(p)
     add_radio_arguments(p)
@@ -75,7 +85,9 @@ def _coordinator(args) -> int:
     return main(args.args)
 
 
-def _imitate(args) -> int:
+def run_config(args) -> RunConfig:
+    """The imitation's whole configuration from its flags, every value checked here once (one line each, exit
+    1): the one helper from flags to config, as zenoh's examples have (examples/common/common.py)."""
     from coordinator.control.imitation_setup import DEFAULT_STEPS
 
     check("--agents", agents_problem(args.agents))
@@ -96,46 +108,32 @@ def _imitate(args) -> int:
 
         check_swarm_size(args.agents)
     live, ros2, bag = live_from_args(args), ros2_from_args(args), ros2_bag_from_args(args)
-    robot = robot_model(args.robot)
-    radio = radio_model(radio_options(args))
+    name = "camera" if args.camera is not None else Path(args.input).stem or "imitate"
+    return RunConfig(
+        agents=args.agents,
+        steps=steps,
+        controller=args.controller,
+        robot=robot_model(args.robot),
+        radio=radio_model(radio_options(args)),
+        realtime=args.realtime or args.camera is not None,  # a camera's run keeps pace with the person
+        recording=Recording(Path(args.out), name, live, ros2, bag),
+        access=Access(**hosts),
+    )
+
+
+def _imitate(args) -> int:
+    config = run_config(args)
     if args.camera is not None:
         from fluidswarm.imitate_camera import imitate_camera
 
-        record = imitate_camera(
-            args.camera,
-            agents=args.agents,
-            steps=steps,
-            out=args.out,
-            controller=args.controller,
-            fps=args.fps,
-            stall_seconds=args.stall_seconds,
-            live=live,
-            ros2=ros2,
-            ros2_router=args.ros2_router,
-            subject=args.subject,
-            robot=robot,
-            radio=radio,
-        )
+        camera = Camera(args.camera, args.fps, args.stall_seconds, args.subject, args.ros2_router)
+        record = imitate_camera(camera, config)
     else:
         from fluidswarm.imitate import imitate
 
         # a picture the coordinator cannot read is its one-line error (coordinator/handover.py CoordinatorFailed)
-        record = imitate(
-            args.input,
-            agents=args.agents,
-            steps=steps,
-            out=args.out,
-            controller=args.controller,
-            frame=args.frame,
-            name=Path(args.input).stem or "imitate",
-            live=live,
-            ros2=ros2,
-            robot=robot,
-            radio=radio,
-            realtime=args.realtime,
-            **hosts,
-        )
-    write_run_bag(record.mcap, bag)
+        record = imitate(args.input, config, frame=args.frame)
+    write_run_bag(record.mcap, config.recording.bag)
     if args.json:
         print_json(record)
     else:

@@ -16,10 +16,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 from agent.protocol import keys
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MAX_AGE, MODES, RATE, SyncMode
+from agent.sph.radio import PERFECT, RadioModel
+from agent.sph.robot import POINT, RobotModel
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
+from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from perception.stream import StreamParams
 
 AGENTS = 60  # an imitation's swarm (imitate, imitate --camera, a scenario file that names none)
@@ -69,4 +74,74 @@ class Sync:
         return {"mode": self.mode, "rate": self.rate, "max_age": self.max_age}
 
 
-__all__ = ["AGENTS", "LAUNCH_AGENTS", "MAX_AGENTS", "MODES", "SYNC_OPTION", "VERIFY_AGENTS", "Sync"]
+@dataclass(frozen=True)
+class Recording:
+    """What a run writes: the MCAP and pictures in `out` (None: nothing, no recorder) under `name`; `live`:
+    HOST:PORT of the recorder's Foxglove server (empty: none); `ros2`: the ROS 2 router the recorder also
+    publishes the run to (docs/ros2.md; empty: none); `bag`: a rosbag2 folder the MCAP is made into after the
+    run (`--ros2-bag`; None: none)."""
+
+    out: Path | None = Path("out/imitate")
+    name: str = "imitate"
+    live: str = ""
+    ros2: str = ""
+    bag: Path | None = None
+
+
+@dataclass(frozen=True)
+class Access:
+    """Whose bus the run is on: by default a fresh run on an embedded router of its own with fresh credentials;
+    with `connect` and `run` a router elsewhere and the users file `auth_file` (docs/security.md), the run split
+    with `workers` other hosts (docs/multi-host.md: waited for `workers_timeout` s, cut by `shares`)."""
+
+    connect: str | None = None
+    run: str | None = None
+    auth_file: str = ""
+    workers: int = 0
+    workers_timeout: float = WORKERS_TIMEOUT
+    shares: str = SHARE_KINDS[0]
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One imitation run, described whole and checked at its edge (the command line builds it once, from the
+    flags, `fluidswarm/imitate_commands.py`): the swarm (`agents` processes for at most `steps` steps), its
+    control (`controller`, agent/protocol/command.py's commands), the robots' bodies and radios, the pacing
+    (`realtime`: simulated time held to the wall clock), what is recorded and the bus it runs on."""
+
+    agents: int = AGENTS
+    steps: int = DEFAULT_STEPS
+    controller: str = DEFAULT_CONTROLLER
+    robot: RobotModel = POINT
+    radio: RadioModel = PERFECT
+    realtime: bool = False
+    recording: Recording = Recording()
+    access: Access = Access()
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A live source of `imitate --camera`: a device number, a stream URL, a video file played as a stream or
+    `ros2:TOPIC` (through the ROS 2 router `ros2_router`); at most `fps` frames observed per second, a stall of
+    `stall_seconds` is an error; `subject` a hand, a person or auto (decided from the first frames)."""
+
+    source: str
+    fps: float = CAMERA_FPS
+    stall_seconds: float = CAMERA_STALL_SECONDS
+    subject: str = "person"
+    ros2_router: str = ""
+
+
+__all__ = [
+    "AGENTS",
+    "LAUNCH_AGENTS",
+    "MAX_AGENTS",
+    "MODES",
+    "SYNC_OPTION",
+    "VERIFY_AGENTS",
+    "Access",
+    "Camera",
+    "Recording",
+    "RunConfig",
+    "Sync",
+]
