@@ -16,11 +16,14 @@ from agent.protocol.spec import AgentSpec
 from agent.records import native
 from agent.sph.params import SPHParams
 from agent.sph.particle import Control
+from agent.sph.radio import RadioModel
+from agent.sph.robot import RobotModel
 
 
-def decoded_with_defaults() -> dict:
+def decoded_with_defaults(**given) -> dict:
+    """The spec the agent reads from the required fields (and `given`), every other field its crate's default."""
     required = {"run": "r", "id": 0, "connect": ["tcp/127.0.0.1:7447"], "steps": 1, "initial": [0.0, 0.0, 0.0, 0.0]}
-    return native.spec_decode(json.dumps(required))
+    return native.spec_decode(json.dumps({**required, **given}))
 
 
 def test_the_crates_sph_parameters_left_out_are_the_python_defaults():
@@ -31,6 +34,13 @@ def test_the_crates_sph_parameters_left_out_are_the_python_defaults():
 
 def test_the_crates_control_left_out_is_the_python_default():
     assert decoded_with_defaults()["control"] == asdict(Control())  # sph.rs Control::default: beta 2, mu 0
+
+
+def test_the_crates_robot_and_radio_fields_left_out_are_the_python_defaults():
+    for kind in ("holonomic", "unicycle"):
+        rust = decoded_with_defaults(robot={"kind": kind})["robot"]
+        assert rust == RobotModel(kind=kind).as_dict(), kind  # radius, v_max, a_max, omega_max, offset
+    assert decoded_with_defaults(radio={"loss": 0.1})["radio"] == RadioModel(loss=0.1).as_dict()
 
 
 def test_the_crates_spec_fields_left_out_are_the_python_defaults():
