@@ -20,8 +20,7 @@ from fluidswarm.run_config import (
     Camera,
     Recording,
     RunConfig,
-    agents_problem,
-    check,
+    check_agents,
 )
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
@@ -90,7 +89,7 @@ def run_config(args) -> RunConfig:
     1): the one helper from flags to config, as zenoh's examples have (examples/common/common.py)."""
     from coordinator.control.imitation_setup import DEFAULT_STEPS
 
-    check("--agents", agents_problem(args.agents))
+    check_agents(args.agents, embedded=not args.workers)  # workers: the run's routers are the hosts'
     steps = DEFAULT_STEPS if args.steps is None else args.steps
     if steps < 1:
         raise UserError(f"--steps: must be >= 1, got {steps}")
@@ -103,10 +102,6 @@ def run_config(args) -> RunConfig:
     hosts = workers_options(args)
     if hosts and args.camera is not None:
         raise UserError("--workers: a file only (--camera runs on one host)")
-    if not hosts:  # the run's own embedded router
-        from swarmhost.launcher import check_swarm_size
-
-        check_swarm_size(args.agents)
     live, ros2, bag = live_from_args(args), ros2_from_args(args), ros2_bag_from_args(args)
     name = "camera" if args.camera is not None else Path(args.input).stem or "imitate"
     return RunConfig(

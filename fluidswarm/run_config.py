@@ -37,11 +37,21 @@ SYNC_OPTION = "--sync"  # the option of every command that picks it (launch also
 
 
 def agents_problem(agents: int) -> str | None:
-    """What is wrong with a swarm of `agents` (None: nothing). An embedded router's own bound (access level)
-    is checked before it starts (swarmhost/launcher.py check_swarm_size)."""
+    """What is wrong with a swarm of `agents` (None: nothing), wherever it runs."""
     if not 1 <= agents <= MAX_AGENTS:
         return f"must be in 1..{MAX_AGENTS}, got {agents}"
     return None
+
+
+def check_agents(agents: int, embedded: bool) -> None:
+    """`--agents` of a command, checked once: on a router of the run's own (`embedded`) first against what that
+    router holds (its ids at the access level, swarmhost/launcher.py check_swarm_size: the line names them),
+    then against every run's bounds."""
+    if embedded:
+        from swarmhost.launcher import check_swarm_size
+
+        check_swarm_size(agents)
+    check("--agents", agents_problem(agents))
 
 
 def positive_problem(value: float) -> str | None:

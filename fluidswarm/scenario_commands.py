@@ -16,7 +16,7 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import SYNC_OPTION, agents_problem, check
+from fluidswarm.run_config import SYNC_OPTION, check_agents
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -300,7 +300,7 @@ def _report(args, record: RunRecord, bag: Path | None = None) -> int:
 def _run(args) -> int:
     sc = load_scenario(args.scenario)
     if args.agents is not None:
-        check("--agents", agents_problem(args.agents))
+        check_agents(args.agents, embedded=not args.workers)  # workers: the run's routers are the hosts'
     extra = failures_from_args(args)
     if extra or args.sync:
         sc = replace(sc, failures=sc.failures + tuple(extra), sync=args.sync or sc.sync)

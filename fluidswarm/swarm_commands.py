@@ -19,8 +19,8 @@ from fluidswarm.run_config import (
     SYNC_OPTION,
     VERIFY_AGENTS,
     Sync,
-    agents_problem,
     check,
+    check_agents,
     positive_problem,
 )
 
@@ -168,20 +168,18 @@ def _slice(args, kind) -> list[int] | None:
     return parse_ids(args.ids, args.agents) if args.ids else None
 
 
-def _check_counts(agents: int, steps: int) -> None:
-    check("--agents", agents_problem(agents))
+def _check_counts(args) -> None:
+    check_agents(args.agents, embedded=not args.connect)
+    steps = args.steps
     if steps < 0:
         raise UserError(f"--steps: must be >= 0, got {steps}")
 
 
 def _check_before_start(args) -> None:
-    """What would fail once the router runs, found before it starts: a swarm beyond an embedded router's ids,
-    a recording that cannot be written (one line each, nothing started)."""
-    from swarmhost.launcher import check_swarm_size
+    """What would fail once the router runs, found before it starts: a recording that cannot be written (one
+    line, nothing started; a swarm beyond an embedded router's ids is _check_counts')."""
     from swarmhost.recorder_process import check_writable
 
-    if not args.connect:
-        check_swarm_size(args.agents)
     if getattr(args, "record", None):
         check_writable(Path(args.record))
 
@@ -229,7 +227,7 @@ def _launch(args) -> int:
     from fluidswarm.block import Block
     from fluidswarm.run import Run
 
-    _check_counts(args.agents, args.steps)
+    _check_counts(args)
     _check_before_start(args)
     check("--rate", positive_problem(args.rate))
     check("--max-age", positive_problem(args.max_age))
@@ -288,7 +286,7 @@ def _verify(args) -> int:
     from fluidswarm.block import Block
     from fluidswarm.run import Run
 
-    _check_counts(args.agents, args.steps)
+    _check_counts(args)
     _check_before_start(args)
     for flag in ("ids", "share"):
         if getattr(args, flag) and not args.run:

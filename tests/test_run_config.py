@@ -54,6 +54,16 @@ def test_a_bad_swarm_size_is_the_same_line_whichever_command_got_it(argv, capsys
     assert err == f"fluidswarm {argv[0]}: error: --agents: must be in 1..8192, got 0"
 
 
+@pytest.mark.parametrize("command", [["imitate", "photo.jpg"], ["launch"], ["verify"], ["run", "demo_v_sign"]])
+def test_a_swarm_beyond_the_embedded_routers_ids_is_the_same_line_whichever_command_got_it(command, capsys):
+    from agent.protocol.access import AGENT_CAPACITY
+
+    assert main([*command, "--agents", "9000"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"fluidswarm {command[0]}: error: --agents 9000: an embedded router knows agent ids")
+    assert f"0..{AGENT_CAPACITY - 1} only" in err
+
+
 def test_a_scenario_files_swarm_size_is_checked_with_the_same_words(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\nexperiment = "branching"\nagents = 0\n')
