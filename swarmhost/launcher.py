@@ -18,6 +18,7 @@ started is stopped when the launcher closes (also on an exception or SIGINT/SIGT
 from __future__ import annotations
 
 import json
+import os
 import secrets
 import shutil
 import tempfile
@@ -42,6 +43,7 @@ from swarmhost.initial_neighbours import initial_neighbours
 from swarmhost.pacing import Pacer, Share
 from swarmhost.recorder_process import RecorderProcess
 from swarmhost.router_host import RouterHost
+from swarmhost.router_process import CompiledRelay
 from swarmhost.supervisor import Supervisor, Swarm
 
 GOLDEN_ANGLE = 2.399963  # rad: late joiners on a spiral, none on top of another
@@ -137,6 +139,10 @@ class Launcher:
             self.router.close()
             raise
         self.relay = self.router.relay  # under per-process rights: agents' id keys -> cell keys
+        # The embedded router's relay also fills the agents' inboxes: a lockstep step's neighbour states in one
+        # message (agent/native/src/relay/inboxes.rs); a host's router (multi-host) relays on the cells only.
+        # FLUIDSWARM_INBOX=0 keeps the cell subscriptions (the side-by-side measurements, an older agent).
+        self.inboxes = isinstance(self.relay, CompiledRelay) and os.environ.get("FLUIDSWARM_INBOX", "1") != "0"
         self.recorder = RecorderProcess(
             self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet, self.access.state_key_ids
         )
@@ -254,6 +260,7 @@ class Launcher:
             params=p,
             timeout=self.agent_timeout,
             state_key_ids=self.access.state_key_ids,
+            inbox=self.inboxes,
             **extra,
         )
 

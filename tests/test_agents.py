@@ -244,7 +244,7 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
 
     good = Launcher.__new__(Launcher)  # only spec_for's fields are needed
     good.run, good.agent_endpoint, good.agent_timeout, good.user, good.password = "r1", "tcp/127.0.0.1:9", 2.0, "", ""
-    good.access = SimpleNamespace(state_key_ids=False)
+    good.access, good.inboxes = SimpleNamespace(state_key_ids=False), False
     setup = spread_block(4)
     spec = json.loads(good.spec_for(0, setup.states[0], setup.controls[0], setup.params, 10).to_json())
     cases = {
@@ -255,6 +255,7 @@ def test_native_agent_rejects_a_bad_spec_in_one_line_naming_the_field():
         "control.beta": {**spec, "control": {**spec["control"], "beta": "stiff"}},
         "bogus": {**spec, "bogus": 1},
         "state_key_ids": {**spec, "state_key_ids": "yes"},
+        "inbox": {**spec, "inbox": True},  # without state_key_ids: no relay fills it
         "not JSON": None,
     }
     for field, bad in cases.items():

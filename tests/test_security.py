@@ -176,7 +176,7 @@ run = sys.argv[2]
 stop = threading.Event()
 signal.signal(signal.SIGTERM, lambda *a: stop.set())
 session = zenoh.open(client_config([sys.argv[1]]))  # FLUIDSWARM_ZENOH_USER/PASSWORD: agent-16's
-did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0, "batch": 0}
+did = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0, "batch": 0, "inbox": 0}
 WILD = [f"fluidswarm/{run}/state/**", f"fluidswarm/{run}/state/*", f"fluidswarm/{run}/**", "fluidswarm/**"]
 def forge(sample):
     data = bytearray(sample.payload.to_bytes())
@@ -196,6 +196,13 @@ def forge(sample):
     # as if a router's relay batched it (a zid of digits: no id letter, so no bit rule denies it)
     session.put(f"fluidswarm/{run}/batch/0123456789", bytes(data))
     did["batch"] += 1
+    # straight into a real agent's inbox (one record, and two), its own and on the wildcard; another's cells
+    sender = keys.id_from_key(key)
+    if sender is not None:
+        session.put(keys.inbox_key(run, sender), bytes(data) * (1 + did["inbox"] % 2))
+        session.put(f"fluidswarm/{run}/inbox/*", bytes(data))
+        session.put(keys.watch_key(run, sender), bytes([1, 2, 0, 0]))  # it watches nothing
+        did["inbox"] += 3
 # REMOTE: its own puts on matching keys are not handed back to it: zenoh delivers a session's puts to its own
 # subscribers inside put(), so put() in forge() (and on the wildcard keys) would wait on forge()'s queue: deadlock
 sub = session.declare_subscriber(f"fluidswarm/{run}/state/**", forge, allowed_origin=zenoh.Locality.REMOTE)
@@ -237,6 +244,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     setup = spread_block(16)
     steps = 150
     seen = {"forged_other_ids": 0, "forged_own_key": 0, "ctl": 0, "command": 0, "wildcard": 0, "batch": 0}
+    seen |= {"inbox": 0, "watch": 0}
 
     def observe(sample):  # on the router's own session: what the router let through
         key, data = str(sample.key_expr), sample.payload.to_bytes()
@@ -248,6 +256,12 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
             seen["batch"] += any(
                 int.from_bytes(data[k + 12 : k + 14], "little") == MARK for k in range(0, len(data), 104)
             )
+        elif "/inbox/" in key:  # nor do the agents' inboxes (the relay's own messages reach us too)
+            seen["inbox"] += len(data) % 104 != 0 or any(
+                int.from_bytes(data[k + 12 : k + 14], "little") == MARK for k in range(0, len(data), 104)
+            )
+        elif "/watch/" in key and keys.id_from_key(key) != 16:
+            seen["watch"] += 1
         elif "/ctl/" in key and (key.rsplit("/", 1)[1], data) in ROGUE_CTL:  # not the launcher's own
             seen["ctl"] += 1
         elif key.endswith("/command"):
@@ -290,6 +304,7 @@ def test_a_rogue_agent_with_valid_credentials_cannot_speak_for_others_or_the_lau
     # refused by the router: none reached even its own session (nor a batch for the recorder)
     assert seen_during_run["forged_other_ids"] == 0 and seen_during_run["ctl"] == 0 and seen_during_run["command"] == 0
     assert seen_during_run["batch"] == 0
+    assert sent["inbox"] > 100 and seen_during_run["inbox"] == 0 and seen_during_run["watch"] == 0
     # under its own id the router lets it speak (it may lie about itself): a record naming someone else under
     # its key is dropped by the launcher's relay, which puts only records naming their key's agent on the cell
     # keys (agents hear states there only); wildcard keys pass the router (its deny rules name key patterns,
@@ -387,7 +402,12 @@ RIGHTS = {
         ("put", keys.state_key(RUN, 5), True),
         ("put", keys.event_key(RUN, 5), True),
         ("put", keys.final_key(RUN, 5), True),
+        ("put", keys.watch_key(RUN, 5), True),
         ("token", keys.alive_key(RUN, 5), True),
+        ("put", keys.watch_key(RUN, 4), False),
+        ("put", keys.inbox_key(RUN, 5), False),  # only the router's relay fills inboxes, its own too
+        ("put", keys.inbox_key(RUN, 4), False),
+        ("put", f"fluidswarm/{RUN}/inbox/*", False),
         ("put", keys.state_key(RUN, 5) + "/1", False),
         ("put", keys.state_key(RUN, 4), False),
         ("put", keys.state_key(RUN, 7), False),
@@ -424,6 +444,8 @@ RIGHTS = {
         ("put", keys.cell_key(RUN, 1, -2) + "/x", False),
         ("put", keys.command_key(RUN), False),
         ("token", keys.alive_key(RUN, 4), False),
+        ("put", keys.inbox_key(RUN, 5), False),
+        ("put", keys.watch_key(RUN, 5), False),
     ],
 }
 
@@ -468,6 +490,21 @@ def test_the_routers_rules_let_each_role_do_its_part_and_nothing_else(tmp_path):
                     wrong.append((user, what, k, passes))
         # A host router's relay takes requests from launchers only (another role adding an agent to relay
         # would have its states relayed twice, or forged ones vouched for)
+        # An agent hears its own inbox, not another's (the router refuses the subscription: the router's puts
+        # on agent 4's inbox reach agent 4 only)
+        heard: dict[int, list] = {4: [], 5: []}
+        own = sessions["agent-5"].declare_subscriber(keys.inbox_key(RUN, 5), lambda s: heard[5].append(1))
+        spy = sessions["agent-5"].declare_subscriber(keys.inbox_key(RUN, 4), lambda s: heard[4].append(1))
+        time.sleep(0.3)
+        for i in (4, 5):
+            router.put(keys.inbox_key(RUN, i), b"x")
+        deadline = time.monotonic() + 1.0
+        while not heard[5] and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.2)
+        if heard != {4: [], 5: [1]}:
+            wrong.append(("agent-5", "declare_subscriber", keys.inbox_key(RUN, 4), heard))
+        own.undeclare(), spy.undeclare()
         relay_key = f"{keys.PREFIX}/{RUN}/relay/{process.zid}"
         for user in RIGHTS:
             replies = list(sessions[user].get(relay_key, payload="add 5 0.5", timeout=1))

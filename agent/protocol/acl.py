@@ -23,7 +23,9 @@ _AGENT_RE = re.compile(r"^agent-(0|[1-9][0-9]{0,9})$")
 _ANY_RUN = f"{keys.PREFIX}/*"
 _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
-# batch: the routers' relays' batches of states for the recorder (agent/native/src/relay.rs), no client's to put
+# batch: the routers' relays' batches of states for the recorder (agent/native/src/relay.rs), no client's to put;
+# inbox: the relay's one message per step to an agent, no client's to put (relay/inboxes.rs); watch: the cells an
+# agent names to the relay, its own key only (watch.rs)
 _KINDS = (
     "state",
     "event",
@@ -37,6 +39,8 @@ _KINDS = (
     "pace",
     "plan",
     "batch",
+    "inbox",
+    "watch",
 )
 _LEAVES = ("command", "recorder", "coordinator", "plan")  # one key per run, no chunk after the kind
 
@@ -59,6 +63,10 @@ def _bit_rule(k: int, bit: int) -> str:
     return f"not-bit{k}-{bit}"
 
 
+def _inbox_rule(k: int, bit: int) -> str:
+    return f"inbox-not-bit{k}-{bit}"
+
+
 def agent_id_of(user: str) -> int | None:
     """The id of user `agent-<id>`, None for any other name."""
     return int(user[len("agent-") :]) if _AGENT_RE.match(user) else None
@@ -71,8 +79,9 @@ def _agent_ids(users: list[str]) -> list[int]:
 def acl_config(users: list[str]) -> dict:
     """Zenoh's `access_control` section for these users (roles above). Default allow; ingress deny rules.
 
-    An agent may put its state, event and final keys, declare its alive token, query (the flush on its own
-    final key) and subscribe; it may not put or declare another agent's keys (the bit rules), ctl, the
+    An agent may put its state, event, final and watch keys, declare its alive token, query (the flush on its
+    own final key) and subscribe (another agent's inbox excepted); it may not put or declare another agent's keys
+    (the bit rules), ctl, the inboxes, the
     command, cell keys (`state/<cx>/<cy>`: only the relay puts there) or the recorder's or
     coordinator's tokens, and it may never delete, reply, declare a queryable or query liveliness. The other
     roles likewise
@@ -87,7 +96,7 @@ def acl_config(users: list[str]) -> dict:
         # a host router's relay requests (relay/<zid>: add an agent to relay) and the run's plan (it names the
         # salt of the command key) are the launchers' only
         _deny("agent-query", ["query"], [f"{_ANY_RUN}/relay/**", f"{_ANY_RUN}/plan"]),
-        _deny("agent-put", ["put"], _kinds_but("state", "event", "final") + [f"{_ANY_RUN}/state/*/*/**"]),
+        _deny("agent-put", ["put"], _kinds_but("state", "event", "final", "watch") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
         # launcher (a client of its router): ctl and its host's share clock (pace) only; the relay that puts on
         # the cell keys is inside the routers (agent/native/src/relay.rs), so no state key at all, an agent's or
@@ -104,12 +113,13 @@ def acl_config(users: list[str]) -> dict:
         _deny("recorder-never", ["put", "query", "liveliness_query"], _EVERYTHING),
         _deny("recorder-token", ["liveliness_token"], _kinds_but("recorder")),
     ]
-    # "bit k is not b": agent ids whose bit k is 1-b may not use keys whose last chunk holds letter (k, b)
+    # "bit k is not b": agent ids whose bit k is 1-b may not use keys whose last chunk holds letter (k, b), nor
+    # hear another agent's inbox (its exact key; a wildcard subscription names no agent: docs/security.md)
     for k in range(keys.ID_BITS):
         for bit in (0, 1):
-            rules.append(
-                _deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"], [f"**/$*{keys.bit_letter(k, bit)}$*"])
-            )
+            letter = keys.bit_letter(k, bit)
+            rules.append(_deny(_bit_rule(k, bit), ["put", "liveliness_token", "query"], [f"**/$*{letter}$*"]))
+            rules.append(_deny(_inbox_rule(k, bit), ["declare_subscriber"], [f"{_ANY_RUN}/inbox/$*{letter}$*"]))
     role_rules = {
         "launcher": ["launcher-never", "launcher-serve", "no-admin", "launcher-put", "launcher-token"],
         "coordinator": ["never", "no-admin", "coordinator-never", "coordinator-put", "coordinator-token"],
@@ -127,7 +137,7 @@ def acl_config(users: list[str]) -> dict:
         if i >= keys.MAX_AGENTS:
             raise ValueError(f"agent-{i}: ids 0..{keys.MAX_AGENTS - 1} only (keys.ID_BITS)")
         subjects.append({"id": f"agent-{i}", "usernames": [f"agent-{i}"]})
-        bits = [_bit_rule(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS)]
+        bits = [r(k, 1 - ((i >> k) & 1)) for k in range(keys.ID_BITS) for r in (_bit_rule, _inbox_rule)]
         policies.append(
             {
                 "id": f"agent-{i}",

@@ -59,6 +59,17 @@ def state_key(run: str, agent_id: int) -> str:
     return native.keys_state_key(run, int(agent_id))
 
 
+def inbox_key(run: str, agent_id: int) -> str:
+    """Where the embedded router's relay hands agent `agent_id` its neighbours' states, one message per
+    lockstep step (agent/native/src/relay/inboxes.rs); only the router puts there (docs/security.md)."""
+    return f"{PREFIX}/{run}/inbox/{id_chunk(agent_id)}"
+
+
+def watch_key(run: str, agent_id: int) -> str:
+    """Where agent `agent_id` names the cells it hears to the relay (agent/native/src/watch.rs)."""
+    return f"{PREFIX}/{run}/watch/{id_chunk(agent_id)}"
+
+
 def state_sender(key: str) -> int | None:
     """The sender id of a state key (`fluidswarm/<run>/state/<id>`), None for anything else."""
     chunks = key.split("/")

@@ -74,6 +74,9 @@ class AgentSpec:
     join           True for a late joiner: adopt the swarm's current step instead of waiting for start
     state_key_ids  a router with per-process rights: the agent puts its states on state/<id> (the launcher's
                    relay puts them on the cell keys), instead of on its cell's key (docs/protocol.md)
+    inbox          the launcher's embedded router hands the agent its neighbours' states in one message per
+                   lockstep step on inbox/<id>, after the cells it names on watch/<id> (needs state_key_ids;
+                   agent/native/src/relay/inboxes.rs), instead of a subscription per cell
     mode           "lockstep" (wait for every expected neighbour's state of the same step; reproducible) or
                    "async" (step on the agent's own clock with the latest neighbour states; docs/protocol.md)
     rate           steps/s an async agent aims for (its own clock); a late agent does not race to catch up
@@ -100,6 +103,7 @@ class AgentSpec:
     secret: str = ""
     join: bool = False
     state_key_ids: bool = False
+    inbox: bool = False
     mode: str = SyncMode.LOCKSTEP
     rate: float = RATE
     max_age: float = MAX_AGE

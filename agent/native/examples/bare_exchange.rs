@@ -18,6 +18,10 @@
 //! `(rx:(worker_threads:1),tx:(handover:rx),app:(handover:rx),net:(handover:rx),acc:(handover:rx))` (the
 //! agent's layout since then), so that the put's transmit task runs on the same worker and wakes nobody.
 //!
+//! With $BARE_INBOX = 1 (and IDKEYS = 1) the agent subscribes to no cell: it puts its cells on its watch key
+//! and hears the round on its inbox key, one message per round from the router's relay (issue 49 item 2,
+//! relay/inboxes.rs), counting the records inside as if they had come one by one.
+//!
 //! Extra client settings (batching, queues: docs/benchmarks/realtime.md) come as `path=json5` pairs separated by
 //! `;` in $BARE_ZENOH_SET; $BARE_RUNTIME replaces the agent's ZENOH_RUNTIME layout. The credentials come from the environment, as the agent's (session.rs).
 
@@ -116,11 +120,13 @@ fn main() {
     let cols = ((n as f64).sqrt().round() as u32).max(1);
     let (x, y) = cell_of(id, cols);
     let cells = keys::covering_cells(x, y, radius, 1.0);
-    // Expected per round: every agent in a watched cell, ourselves too when the relay puts our state on our cell
+    let by_inbox = idkeys && std::env::var("BARE_INBOX").is_ok_and(|v| v == "1");
+    // Expected per round: every agent in a watched cell, ourselves too when the relay puts our state on our
+    // cell (an inbox leaves ours out)
     let expected = (0..n)
         .filter(|&j| {
             let (xj, yj) = cell_of(j, cols);
-            cells.contains(&keys::cell_of(xj, yj, 1.0)) && (idkeys || j != id)
+            cells.contains(&keys::cell_of(xj, yj, 1.0)) && ((idkeys && !by_inbox) || j != id)
         })
         .count() as u32;
 
@@ -135,21 +141,25 @@ fn main() {
     let inline = std::env::var("BARE_INLINE").is_ok_and(|v| v == "1");
 
     let mut held = Vec::new();
-    for &c in &cells {
-        let key = session.declare_keyexpr(keys::cell_key(&run, c)).wait().expect("keyexpr");
+    let listen = |key: zenoh::key_expr::KeyExpr<'static>| {
         let ib = Arc::clone(&inbox);
-        let sub = session
-            .declare_subscriber(key.clone())
+        session
+            .declare_subscriber(key)
             .callback(move |s| {
-                let Some((_, step)) = wire::peek_id_step(&s.payload().to_bytes()) else { return };
+                let data = s.payload().to_bytes();
                 let mut k = ib.counts.lock().unwrap();
-                k.total += 1;
-                let slot = &mut k.per_round[(step % 4) as usize];
-                if slot.0 != step {
-                    *slot = (step, 0);
+                let mut completes = false;
+                for record in data.chunks(wire::STATE_SIZE) {
+                    let Some((_, step)) = wire::peek_id_step(record) else { return };
+                    k.total += 1;
+                    let slot = &mut k.per_round[(step % 4) as usize];
+                    if slot.0 != step {
+                        *slot = (step, 0);
+                    }
+                    slot.1 += 1;
+                    completes |= step == k.want && k.complete(step);
                 }
-                slot.1 += 1;
-                if step != k.want || !k.complete(step) {
+                if !completes {
                     return;
                 }
                 match ib.inline.get() {
@@ -169,8 +179,18 @@ fn main() {
                 }
             })
             .wait()
-            .expect("subscriber");
-        held.push((sub, key));
+            .expect("subscriber")
+    };
+    if by_inbox {
+        let key = session.declare_keyexpr(keys::inbox_key(&run, id)).wait().expect("keyexpr");
+        held.push((listen(key.clone()), key));
+        let watch = fluidswarm_agent::watch::encode_watch(&cells);
+        session.put(keys::watch_key(&run, id), watch).congestion_control(CongestionControl::Block).wait().expect("put");
+    } else {
+        for &c in &cells {
+            let key = session.declare_keyexpr(keys::cell_key(&run, c)).wait().expect("keyexpr");
+            held.push((listen(key.clone()), key));
+        }
     }
     let ib = Arc::clone(&inbox);
     let start = session

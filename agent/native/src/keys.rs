@@ -57,6 +57,17 @@ pub fn batch_key(run: &str, zid: &str) -> String {
     format!("{PREFIX}/{run}/batch/{zid}")
 }
 
+/// Where the relay hands agent `id` its neighbours' states, one message per step (relay/inboxes.rs): only the
+/// router's session puts there (docs/security.md).
+pub fn inbox_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/inbox/{}", id_chunk(id))
+}
+
+/// Where agent `id` tells the relay the cells it hears (watch.rs), its own key like `state/<id>`.
+pub fn watch_key(run: &str, id: u32) -> String {
+    format!("{PREFIX}/{run}/watch/{}", id_chunk(id))
+}
+
 pub fn cell_key(run: &str, c: (i64, i64)) -> String {
     format!("{PREFIX}/{run}/state/{}/{}", c.0, c.1)
 }
@@ -145,6 +156,8 @@ mod tests {
         assert_eq!(state_key("r", 7), "fluidswarm/r/state/bdfgikmoqsuwy");
         assert_eq!(alive_key("r", 12), "fluidswarm/r/alive/acfhikmoqsuwy");
         assert_eq!(cell_key("r", (-1, 2)), "fluidswarm/r/state/-1/2");
+        assert_eq!(inbox_key("r", 7), "fluidswarm/r/inbox/bdfgikmoqsuwy");
+        assert_eq!(watch_key("r", 7), "fluidswarm/r/watch/bdfgikmoqsuwy");
         assert_eq!(id_from_key(&alive_key("r", 12)), Some(12));
         assert_eq!(id_from_key("fluidswarm/r/alive/12"), None);
         assert_eq!(id_from_key("fluidswarm/r/alive/acegikmoqsuwz"), Some(4096));

@@ -25,6 +25,7 @@ pub mod shell;
 pub mod spec;
 pub mod sph;
 pub mod traffic;
+pub mod watch;
 pub mod wire;
 
 /// Any panic ends the process at once (after the default message): a panicking zenoh callback thread would

@@ -28,6 +28,9 @@ use zenoh::{
 use crate::keys;
 use crate::wire;
 
+pub mod inboxes;
+use inboxes::Inboxes;
+
 /// Reasons a state is not relayed, in the order the counters are reported: the record's own faults (as
 /// wire::decode_state names them), a record naming another agent than its key (`id`: the key's owner forged
 /// it), a put on a wildcard key (`key`: it names no agent; the router's deny rules cannot name every wildcard).
@@ -74,9 +77,9 @@ impl RelayTable {
         Ok(())
     }
 
-    /// The cell a state on `key` goes to, None if it is not relayed (the reason counted, or another
-    /// launcher's agent: its own launcher relays it).
-    pub fn route(&self, key: &str, data: &[u8]) -> Option<(i64, i64)> {
+    /// The sender and the cell a state on `key` goes to, None if it is not relayed (the reason counted, or
+    /// another launcher's agent: its own launcher relays it).
+    pub fn route(&self, key: &str, data: &[u8]) -> Option<(u32, (i64, i64))> {
         let Some(&id) = self.ids.read().expect("ids lock").get(key) else {
             if key.contains('*') {
                 self.reject(REJECT_KEY);
@@ -94,7 +97,28 @@ impl RelayTable {
             }
             Ok((_, x, y)) => {
                 let cell = self.cell.read().expect("cell lock").expect("a relayed agent set the cell");
-                Some(keys::cell_of(x, y, cell))
+                Some((id, keys::cell_of(x, y, cell)))
+            }
+        }
+    }
+
+    /// The cells agent `id` (of the exact key `key`) watches, from its watch record (watch.rs); None if the key
+    /// is not an added agent's own watch key or the record is refused (the reason counted, as for states).
+    pub fn watched(&self, key: &str, data: &[u8]) -> Option<(u32, Vec<(i64, i64)>)> {
+        let id = keys::id_from_key(key).filter(|&id| keys::watch_key(&self.run, id) == key);
+        let Some(id) =
+            id.filter(|&id| self.ids.read().expect("ids lock").contains_key(&keys::state_key(&self.run, id)))
+        else {
+            if key.contains('*') {
+                self.reject(REJECT_KEY);
+            }
+            return None;
+        };
+        match crate::watch::decode_watch(data) {
+            Ok(cells) => Some((id, cells)),
+            Err(reason) => {
+                self.reject(reason);
+                None
             }
         }
     }
@@ -221,7 +245,8 @@ struct Batcher {
 
 #[cfg(feature = "net")]
 impl Batcher {
-    fn start(session: &Session, run: &str) -> zenoh::Result<Batcher> {
+    /// With `inboxes`, the same thread sends the inbox groups that waited their longest (inboxes.rs `due`).
+    fn start(session: &Session, run: &str, inboxes: Option<std::sync::Arc<InboxRelay>>) -> zenoh::Result<Batcher> {
         let key = session.declare_keyexpr(keys::batch_key(run, &session.zid().to_string())).wait()?;
         let batch: std::sync::Arc<Mutex<StateBatch>> = Default::default();
         let stop: std::sync::Arc<std::sync::atomic::AtomicBool> = Default::default();
@@ -233,9 +258,67 @@ impl Batcher {
                 if let Some(due) = due {
                     put_batch(&out, &key, due);
                 }
+                if let Some(inboxes) = &inboxes {
+                    inboxes.due(&out, Instant::now());
+                }
             }
         })?;
         Ok(Batcher { batch, stop })
+    }
+}
+
+/// The inboxes of a launcher's embedded router (inboxes.rs) and their declared keys, under one lock that is
+/// also held while their messages are put: an agent's messages leave in the order they were made (a step's
+/// group never overtakes the one before; an agent takes a step-m state that comes after m + 1's as lost).
+#[cfg(feature = "net")]
+struct InboxRelay {
+    run: String,
+    inner: Mutex<(Inboxes, HashMap<u32, KeyExpr<'static>>)>,
+}
+
+#[cfg(feature = "net")]
+impl InboxRelay {
+    fn put_all(session: &Session, run: &str, keys_of: &mut HashMap<u32, KeyExpr<'static>>, out: inboxes::Out) {
+        for (to, records) in out {
+            let key = match keys_of.get(&to) {
+                Some(k) => k.clone(),
+                None => match session.declare_keyexpr(keys::inbox_key(run, to)).wait() {
+                    Ok(k) => keys_of.entry(to).or_insert(k).clone(),
+                    Err(_) => return, // the session is closing
+                },
+            };
+            // BLOCK and REMOTE, as the cell puts below
+            let _ = session
+                .put(key, records)
+                .congestion_control(CongestionControl::Block)
+                .allowed_destination(Locality::Remote)
+                .wait();
+        }
+    }
+
+    fn watch(&self, session: &Session, id: u32, cells: Vec<(i64, i64)>) {
+        let mut guard = self.inner.lock().expect("inbox lock");
+        let (inboxes, keys_of) = &mut *guard;
+        let mut out = inboxes::Out::new();
+        inboxes.watch(id, cells, Instant::now(), &mut out);
+        Self::put_all(session, &self.run, keys_of, out);
+    }
+
+    fn state(&self, session: &Session, from: u32, cell: (i64, i64), record: &[u8]) {
+        let Some((_, step)) = wire::peek_id_step(record) else { return };
+        let mut guard = self.inner.lock().expect("inbox lock");
+        let (inboxes, keys_of) = &mut *guard;
+        let mut out = inboxes::Out::new();
+        inboxes.state(from, step, cell, record, Instant::now(), &mut out);
+        Self::put_all(session, &self.run, keys_of, out);
+    }
+
+    fn due(&self, session: &Session, now: Instant) {
+        let mut guard = self.inner.lock().expect("inbox lock");
+        let (inboxes, keys_of) = &mut *guard;
+        let mut out = inboxes::Out::new();
+        inboxes.due(now, &mut out);
+        Self::put_all(session, &self.run, keys_of, out);
     }
 }
 
@@ -255,15 +338,19 @@ fn relay_subscriber(
     table: std::sync::Arc<RelayTable>,
     cells: Cells,
     batch: std::sync::Arc<Mutex<StateBatch>>,
+    inboxes: Option<std::sync::Arc<InboxRelay>>,
     expr: String,
 ) -> zenoh::Result<zenoh::pubsub::Subscriber<()>> {
     let out = session.clone();
     session
         .declare_subscriber(expr)
         .callback(move |sample: Sample| {
-            let Some(c) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
+            let Some((from, c)) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
                 return;
             };
+            if let Some(inboxes) = &inboxes {
+                inboxes.state(&out, from, c, &sample.payload().to_bytes());
+            }
             let key = {
                 let mut cells = cells.lock().expect("cells lock");
                 match cells.get(&c) {
@@ -295,16 +382,29 @@ fn relay_subscriber(
 #[cfg(feature = "net")]
 pub struct StateRelay {
     _sub: zenoh::pubsub::Subscriber<()>,
+    _watch: zenoh::pubsub::Subscriber<()>,
     _batcher: Batcher,
 }
 
 #[cfg(feature = "net")]
 impl StateRelay {
+    /// Also the inboxes of the agents that send their watched cells (`watch/<id>`, watch.rs): one message a
+    /// step on `inbox/<id>` for each (inboxes.rs).
     pub fn start(session: &Session, table: std::sync::Arc<RelayTable>) -> zenoh::Result<StateRelay> {
         let expr = format!("{}/{}/state/*", keys::PREFIX, table.run);
-        let batcher = Batcher::start(session, &table.run)?;
-        let sub = relay_subscriber(session, table, Cells::default(), batcher.batch.clone(), expr)?;
-        Ok(StateRelay { _sub: sub, _batcher: batcher })
+        let inboxes = std::sync::Arc::new(InboxRelay { run: table.run.clone(), inner: Default::default() });
+        let batcher = Batcher::start(session, &table.run, Some(inboxes.clone()))?;
+        let (ib, t, own) = (inboxes.clone(), table.clone(), session.clone());
+        let watch = session
+            .declare_subscriber(format!("{}/{}/watch/*", keys::PREFIX, table.run))
+            .callback(move |sample: Sample| {
+                if let Some((id, cells)) = t.watched(sample.key_expr().as_str(), &sample.payload().to_bytes()) {
+                    ib.watch(&own, id, cells);
+                }
+            })
+            .wait()?;
+        let sub = relay_subscriber(session, table, Cells::default(), batcher.batch.clone(), Some(inboxes), expr)?;
+        Ok(StateRelay { _sub: sub, _watch: watch, _batcher: batcher })
     }
 }
 
@@ -329,7 +429,8 @@ impl HostRelay {
             if let std::collections::hash_map::Entry::Vacant(e) = self.subs.entry(id) {
                 let expr = keys::state_key(&self.table.run, id);
                 let (table, cells, batch) = (self.table.clone(), self.cells.clone(), self.batcher.batch.clone());
-                let sub = relay_subscriber(session, table, cells, batch, expr).map_err(|e| format!("relay: {e}"))?;
+                let sub =
+                    relay_subscriber(session, table, cells, batch, None, expr).map_err(|e| format!("relay: {e}"))?;
                 e.insert(sub);
             }
         }
@@ -368,7 +469,7 @@ impl HostRelays {
                             Err(format!("run {run}: no agent of it is relayed here"))
                         } else {
                             if !runs.contains_key(run) {
-                                match Batcher::start(&own, run) {
+                                match Batcher::start(&own, run, None) {
                                     Ok(batcher) => {
                                         let relay = HostRelay {
                                             table: std::sync::Arc::new(RelayTable::new(run)),
@@ -451,7 +552,7 @@ mod tests {
         let t = RelayTable::new("r");
         t.add(5, 0.5).unwrap();
         let k5 = keys::state_key("r", 5);
-        assert_eq!(t.route(&k5, &record(5, 1.2, -0.1)), Some((2, -1)));
+        assert_eq!(t.route(&k5, &record(5, 1.2, -0.1)), Some((5, (2, -1))));
         assert_eq!(t.route(&k5, &record(6, 1.2, -0.1)), None); // names another agent
         assert_eq!(t.route(&k5, &record(5, f64::NAN, 0.0)), None);
         assert_eq!(t.route(&k5, &record(5, 0.0, 0.0)[..40]), None);

@@ -115,16 +115,21 @@ impl StateKeys {
     }
 }
 
-/// Put a state record. Batched (`express` off: 3.1x the steps/s of `express` on at N = 100) and remote only:
-/// our own cell's subscriber would otherwise get our state back (under per-process rights the relay's copy on
-/// our cell still comes back; the core drops it). docs/benchmarks/native.md.
-fn put_state(session: &Session, key: KeyExpr<'static>, record: &[u8; wire::STATE_SIZE], cc: CongestionControl) {
-    let _ = session
-        .put(key, record.to_vec())
-        .congestion_control(cc)
-        .express(false)
-        .allowed_destination(Locality::Remote)
-        .wait();
+/// Put a state record (or our watch record, which travels with them). Batched (`express` off: 3.1x the
+/// steps/s of `express` on at N = 100) and remote only: our own cell's subscriber would otherwise get our state
+/// back (under per-process rights the relay's copy on our cell still comes back; the core drops it).
+/// docs/benchmarks/native.md.
+fn put_state(session: &Session, key: KeyExpr<'static>, record: Vec<u8>, cc: CongestionControl) {
+    let _ = session.put(key, record).congestion_control(cc).express(false).allowed_destination(Locality::Remote).wait();
+}
+
+/// An inbox agent's cells (spec `inbox`): told to the relay on our watch key instead of subscribed to
+/// (watch.rs, relay/inboxes.rs).
+struct Watched {
+    key: KeyExpr<'static>,
+    cells: std::collections::BTreeSet<(i64, i64)>,
+    /// changed since it was last put
+    dirty: bool,
 }
 
 /// What the receiving thread and the main thread share, under one mutex.
@@ -132,6 +137,8 @@ struct Driven {
     core: AgentCore,
     inbox: Inbox,
     keys: StateKeys,
+    /// an inbox agent's cells, None for one that subscribes to them
+    watched: Option<Watched>,
     /// when the core's latest sleep ends, s on the shell's clock
     until: f64,
     /// when the main thread looks next while it waits (-inf while it is busy: it looks again anyway)
@@ -178,9 +185,22 @@ impl Driven {
     fn dispatch(&mut self, actions: Vec<Action>, put_here: bool, out: &mut Vec<Todo>) -> bool {
         let mut ring = false;
         for action in actions {
+            // An inbox agent's cells: kept here, and put (below) before anything else goes out. The relay then
+            // has them before our state: a neighbour answers our state with its next one, which must find us
+            // watching (as a cell subscription must be declared before the state goes out, `deliver`).
+            if let (Some(w), Action::Subscribe(c) | Action::Unsubscribe(c)) = (&mut self.watched, &action) {
+                let changed = match action {
+                    Action::Subscribe(_) => w.cells.insert(*c),
+                    _ => w.cells.remove(c),
+                };
+                w.dirty |= changed;
+                continue;
+            }
+            ring |= self.put_watch(put_here, out);
             match action {
                 Action::Publish { cell, record } => {
                     let Some(key) = self.keys.key(cell) else { continue };
+                    let record = record.to_vec();
                     if put_here {
                         // Block, as from the main thread: a message's congestion control travels with it, and
                         // a router drops a `Drop` state for any subscriber whose queue is full (measured: the
@@ -191,7 +211,7 @@ impl Driven {
                         // unsent 64 kB batch of our states (~500 steps the router did not read us), which a
                         // lockstep agent cannot reach: it steps only on states the same router relays, and a
                         // router that stops reading agents stops relaying them.
-                        put_state(&self.keys.session, key, &record, CongestionControl::Block);
+                        put_state(&self.keys.session, key, record, CongestionControl::Block);
                     } else {
                         out.push(Todo::Put(key, record));
                         self.held_puts += 1;
@@ -210,7 +230,23 @@ impl Driven {
                 }
             }
         }
-        ring
+        ring | self.put_watch(put_here, out)
+    }
+
+    /// An inbox agent's changed cells go out (here, or held for the main thread in order with the state puts);
+    /// whether the main thread must look.
+    fn put_watch(&mut self, put_here: bool, out: &mut Vec<Todo>) -> bool {
+        let Some(w) = self.watched.as_mut().filter(|w| w.dirty) else { return false };
+        w.dirty = false;
+        let cells: Vec<(i64, i64)> = w.cells.iter().copied().collect();
+        let record = crate::watch::encode_watch(&cells);
+        if put_here {
+            put_state(&self.keys.session, w.key.clone(), record, CongestionControl::Block);
+            return false;
+        }
+        out.push(Todo::Put(w.key.clone(), record));
+        self.held_puts += 1;
+        true
     }
 }
 
@@ -252,7 +288,8 @@ impl Shared {
         // over, or made by a timeout), this run's go behind it. Put here before it, a step-m+1 state overtook
         // step m's, and a neighbour still at m took m as lost and stepped without it (inexact: the rogue-states
         // test, 0.012 m).
-        let hand_off = d.held_puts > 0 || actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
+        let subscribes = d.watched.is_none() && actions.iter().any(|a| matches!(a, Action::Subscribe(_)));
+        let hand_off = d.held_puts > 0 || subscribes;
         let mut handed = Vec::new();
         let ring = d.dispatch(actions, !hand_off, &mut handed);
         d.deferred.append(&mut handed);
@@ -264,7 +301,7 @@ impl Shared {
 
 /// What the main thread does outside the lock, in the order the core said.
 enum Todo {
-    Put(KeyExpr<'static>, [u8; wire::STATE_SIZE]),
+    Put(KeyExpr<'static>, Vec<u8>),
     Act(Action),
 }
 
@@ -278,12 +315,15 @@ struct Shell {
     fixed: Vec<Subscriber<()>>,
     token: Option<LivelinessToken>,
     cpu_at_start: Option<f64>,
+    /// an inbox agent (spec `inbox`, lockstep)
+    inbox: bool,
 }
 
 /// Run the agent of `spec` on an open session; its exit code.
 pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Session) -> i32 {
     let t0 = Instant::now();
     let (run, id, state_key_ids, timeout) = (spec.run.clone(), spec.id, spec.state_key_ids, spec.timeout);
+    let inbox = spec.inbox && spec.mode == crate::spec::Mode::Lockstep;
     let commands = controller.is_some();
     let core = AgentCore::new(spec, controller, 0.0, unix_now());
     let keys = StateKeys { session: session.clone(), run: run.clone(), own: None, cell: None };
@@ -291,6 +331,7 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
         core,
         inbox: Inbox::default(),
         keys,
+        watched: None,
         until: 0.0,
         looks_at: f64::NEG_INFINITY,
         deferred: Vec::new(),
@@ -302,10 +343,14 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
     };
     let shared = Arc::new(Shared { driven: Mutex::new(driven), bell: Condvar::new(), t0 });
     let mut shell =
-        Shell { session, run, id, cells: HashMap::new(), fixed: Vec::new(), token: None, cpu_at_start: None };
+        Shell { session, run, id, cells: HashMap::new(), fixed: Vec::new(), token: None, cpu_at_start: None, inbox };
     let mut stop = false;
-    match shell.declare_fixed(&shared, commands, state_key_ids) {
-        Ok(own) => shared.lock().keys.own = own,
+    match shell.declare_fixed(&shared, commands, state_key_ids, inbox) {
+        Ok((own, watch)) => {
+            let mut d = shared.lock();
+            d.keys.own = own;
+            d.watched = watch.map(|key| Watched { key, cells: Default::default(), dirty: false });
+        }
         Err(e) => {
             eprintln!("fluidswarm agent {id}: error: {e}");
             stop = true;
@@ -318,7 +363,7 @@ pub fn run(spec: AgentSpec, controller: Option<CommandFollower>, session: Sessio
                 Todo::Put(key, record) => {
                     // Block: a dropped state costs a lockstep swarm a republish round (Drop ran 0.5x,
                     // docs/benchmarks/native.md).
-                    put_state(&shell.session, key, &record, CongestionControl::Block);
+                    put_state(&shell.session, key, record, CongestionControl::Block);
                     shared.lock().held_puts -= 1;
                 }
                 Todo::Act(Action::Exit(code)) => {
@@ -367,13 +412,15 @@ fn next_todo(shared: &Shared, stop: bool) -> Vec<Todo> {
 }
 
 impl Shell {
-    /// The control and command subscribers, and our state key under per-process rights, held for the run.
+    /// The control and command subscribers, and our state key under per-process rights, held for the run; an
+    /// inbox agent's inbox subscriber and its watch key.
     fn declare_fixed(
         &mut self,
         shared: &Arc<Shared>,
         commands: bool,
         state_key_ids: bool,
-    ) -> Result<Option<KeyExpr<'static>>, String> {
+        inbox: bool,
+    ) -> Result<(Option<KeyExpr<'static>>, Option<KeyExpr<'static>>), String> {
         let sh = Arc::clone(shared);
         let ctl = self
             .session
@@ -400,10 +447,44 @@ impl Shell {
                 .map_err(zerr)?;
             self.fixed.push(cmd);
         }
-        if state_key_ids {
-            return self.declare_state_key().map(Some);
-        }
-        Ok(None)
+        let watch = if inbox { Some(self.declare_inbox(shared)?) } else { None };
+        let own = if state_key_ids { Some(self.declare_state_key()?) } else { None };
+        Ok((own, watch))
+    }
+
+    /// Our inbox (spec `inbox`): one message a step holding the neighbours' states the relay passed on from the
+    /// cells we watch (relay/inboxes.rs), each record checked by the core as one from a cell. Our watch key.
+    fn declare_inbox(&mut self, shared: &Arc<Shared>) -> Result<KeyExpr<'static>, String> {
+        let sh = Arc::clone(shared);
+        let exact = keys::inbox_key(&self.run, self.id);
+        let key = self.session.declare_keyexpr(exact.clone()).wait().map_err(zerr)?;
+        let sub = self
+            .session
+            .declare_subscriber(key)
+            .callback(move |sample| {
+                // Only the router's relay puts on our exact inbox key (docs/security.md); a put on a wildcard
+                // key reaches us too. A message that is not whole records, or too many, goes to the core as one
+                // record, which it refuses and counts (`length`, `version` or `key`), as a bad state on a cell.
+                let on_key = sample.key_expr().as_str() == exact;
+                let data = sample.payload().to_bytes();
+                let whole = !data.is_empty()
+                    && data.len().is_multiple_of(wire::STATE_SIZE)
+                    && data.len() <= crate::relay::inboxes::MAX_RECORDS * wire::STATE_SIZE;
+                sh.deliver(|inbox| {
+                    if !(on_key && whole) {
+                        return inbox.push_state(data.into_owned(), on_key);
+                    }
+                    let mut ring = false;
+                    for record in data.chunks(wire::STATE_SIZE) {
+                        ring |= inbox.push_state(record.to_vec(), true);
+                    }
+                    ring
+                })
+            })
+            .wait()
+            .map_err(zerr)?;
+        self.fixed.push(sub);
+        self.session.declare_keyexpr(keys::watch_key(&self.run, self.id)).wait().map_err(zerr)
     }
 
     /// Our state key, declared once. States go out with `session.put`, not a declared Publisher: a
@@ -436,6 +517,13 @@ impl Shell {
                 Ok(())
             }
             Action::DeclareAlive => {
+                // An inbox agent's cells must be the relay's before anyone starts: the token is a declaration,
+                // which overtakes a put still queued (declarations travel at a higher priority), and a neighbour's
+                // step-0 state that found us not yet watching would never come (measured: 1 run in 6 at N = 30
+                // waited the start timeout). The flush makes sure the router has handled our watch record.
+                if self.inbox {
+                    self.flush();
+                }
                 let token = self.session.liveliness().declare_token(keys::alive_key(&self.run, self.id)).wait();
                 self.token = Some(token.map_err(zerr)?);
                 Ok(())
@@ -499,6 +587,11 @@ impl Shell {
     fn close(&mut self) {
         self.cells.clear();
         self.fixed.clear();
+        self.flush();
+    }
+
+    /// Wait until the router has what we put so far (see `close`).
+    fn flush(&self) {
         if let Ok(replies) =
             self.session.get(keys::final_key(&self.run, self.id)).timeout(Duration::from_secs(1)).wait()
         {

@@ -43,6 +43,10 @@ pub struct AgentSpec {
     /// the launcher's relay puts them on the cell keys; else on the cell's key (docs/protocol.md,
     /// docs/security.md).
     pub state_key_ids: bool,
+    /// The launcher's embedded router hands this agent its neighbours' states in one message per lockstep step
+    /// on `inbox/<id>`, after the cells it says it hears on `watch/<id>` (relay/inboxes.rs, watch.rs), instead
+    /// of a subscription per cell; under per-process rights and in lockstep only (an async agent ignores it).
+    pub inbox: bool,
     pub mode: Mode,
     pub rate: f64,
     pub max_age: f64,
@@ -78,6 +82,7 @@ pub const FIELDS: &[&str] = &[
     "secret",
     "join",
     "state_key_ids",
+    "inbox",
     "mode",
     "rate",
     "max_age",
@@ -154,6 +159,16 @@ impl AgentSpec {
             Some(Value::Bool(b)) => *b,
             Some(v) => return err(format!("state_key_ids must be true or false, got {v}")),
         };
+        let inbox = match obj.get("inbox") {
+            None => false,
+            Some(Value::Bool(b)) => *b,
+            Some(v) => return err(format!("inbox must be true or false, got {v}")),
+        };
+        if inbox && !state_key_ids {
+            return err(
+                "inbox: the relay that fills the inboxes runs under per-process rights only (state_key_ids)".into()
+            );
+        }
         let secret = string(&obj, "secret")?;
         if secret.len() % 2 != 0 || !secret.bytes().all(|b| b.is_ascii_hexdigit()) {
             return err("secret must be hex".into());
@@ -178,6 +193,7 @@ impl AgentSpec {
             secret,
             join,
             state_key_ids,
+            inbox,
             mode,
             rate: positive(&obj, "rate", DEFAULT_RATE)?,
             max_age: positive(&obj, "max_age", DEFAULT_MAX_AGE)?,

@@ -27,6 +27,9 @@ impl AgentSpec {
         obj.insert("secret".into(), json!(self.secret));
         obj.insert("join".into(), json!(self.join));
         obj.insert("state_key_ids".into(), json!(self.state_key_ids));
+        if self.inbox {
+            obj.insert("inbox".into(), json!(true)); // left out when false: an older agent reads the spec
+        }
         let mode = match self.mode {
             Mode::Lockstep => "lockstep",
             Mode::Async => "async",
@@ -96,6 +99,7 @@ mod tests {
     const FULL: &str = r#"{"run":"r1","id":3,"connect":["tcp/127.0.0.1:7447"],"steps":10,
         "initial":[1,2.000000000000001,0.5,-0.1],"params":{"h":0.7,"domain":[0,10,0,10],"border":"reflect"},
         "control":{"alpha":0.5,"wx":1e-300},"timeout":5,"join":true,"secret":"ab01","neighbours":[[4,2.5,3]],
+        "state_key_ids":true,"inbox":true,
         "robot":{"kind":"unicycle","radius":0.3},"radio":{"loss":0.1,"latency":2,"noise":0.05,"seed":7},
         "obstacles":[{"kind":"circle","centre":[5,5],"radius":0.5},{"kind":"polygon","vertices":[[1,1],[2,1],[2,2]]}]}"#;
 

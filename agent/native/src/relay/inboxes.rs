@@ -1,0 +1,312 @@
+//! The relay's inboxes, without I/O (issue 49, docs/protocol.md "Inboxes"): one message per lockstep step for
+//! each agent that watches cells (watch.rs), holding every state the relay passed on from those cells since
+//! the last one, instead of one message per neighbour state (~23 at R_sub = 2.5 h) on the cell keys. Each
+//! message is a wake-up of the agent's receiving thread, and a wake-up is most of what a lockstep step cost
+//! (docs/benchmarks/realtime.md).
+//!
+//! The relay computes no physics and decides nothing for an agent: it gives an agent exactly the states its
+//! cell subscriptions would (those put on its watched cells, its own left out: the agent drops it anyway),
+//! only grouped. What it chooses is *when* a group goes out: once every agent whose latest state is in one of
+//! the watched cells, and that was not left behind (its latest step at least `next` - 1), has been given its
+//! step-`next` state, or INBOX_WAIT after the group's first state. A state older than the step the group
+//! waits for (a late one, a republication) goes out at once with whatever is pending. An agent that stopped
+//! sending (dead, frozen) is waited for once, INBOX_WAIT, then no more: its latest step falls behind.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+type Cell = (i64, i64);
+
+/// The longest a group waits for its last state. A lockstep step of N = 300 agents on 2 cores lasts ~50 ms, its
+/// states spread over it as the processes get a core: shorter, and a group would often go out in two parts
+/// (two wake-ups). Only a neighbour that stopped costs it, once.
+pub const INBOX_WAIT: Duration = Duration::from_millis(60);
+/// At most this many records in one message (the agent refuses more): a full group goes out.
+pub const MAX_RECORDS: usize = 1024;
+
+/// One agent's inbox.
+#[derive(Default)]
+struct Watcher {
+    cells: Vec<Cell>,
+    buf: Vec<u8>,
+    count: usize,
+    /// when the pending group's first state came
+    since: Option<Instant>,
+    /// per sender, the highest step given to this agent (sent or pending)
+    given: HashMap<u32, u32>,
+    /// the step the pending group waits for (None: the first state sets it)
+    next: Option<u32>,
+    /// senders given a step >= `next`
+    got: usize,
+    /// how many agents the last look found the group waiting for
+    need: usize,
+}
+
+/// The relay's inboxes of one run.
+#[derive(Default)]
+pub struct Inboxes {
+    watchers: HashMap<u32, Watcher>,
+    /// cell -> the agents watching it
+    watching: HashMap<Cell, Vec<u32>>,
+    /// cell -> the agents whose latest state is in it
+    members: HashMap<Cell, Vec<u32>>,
+    /// agent -> (cell, step) of its latest state
+    latest: HashMap<u32, (Cell, u32)>,
+}
+
+/// Messages to put: (the agent whose inbox, the concatenated records).
+pub type Out = Vec<(u32, Vec<u8>)>;
+
+fn remove(list: &mut Vec<u32>, id: u32) {
+    if let Some(k) = list.iter().position(|&x| x == id) {
+        list.swap_remove(k);
+    }
+}
+
+impl Inboxes {
+    pub fn is_watching(&self, id: u32) -> bool {
+        self.watchers.contains_key(&id)
+    }
+
+    /// Agent `id` now watches `cells` (its whole set, watch.rs).
+    pub fn watch(&mut self, id: u32, cells: Vec<Cell>, now: Instant, out: &mut Out) {
+        let w = self.watchers.entry(id).or_default();
+        for c in &w.cells {
+            if let Some(list) = self.watching.get_mut(c) {
+                remove(list, id);
+            }
+        }
+        for &c in &cells {
+            self.watching.entry(c).or_default().push(id);
+        }
+        w.cells = cells;
+        self.look(id, now, out);
+    }
+
+    /// A state the relay passed on: agent `from`'s step-`step` record, in `cell`.
+    pub fn state(&mut self, from: u32, step: u32, cell: Cell, record: &[u8], now: Instant, out: &mut Out) {
+        let mut left = None;
+        match self.latest.get(&from).copied() {
+            Some((_, s)) if step < s => {} // an old state: where the agent was is not where it is
+            Some((c, _)) => {
+                self.latest.insert(from, (cell, step));
+                if c != cell {
+                    if let Some(list) = self.members.get_mut(&c) {
+                        remove(list, from);
+                    }
+                    self.members.entry(cell).or_default().push(from);
+                    left = Some(c);
+                }
+            }
+            None => {
+                self.latest.insert(from, (cell, step));
+                self.members.entry(cell).or_default().push(from);
+            }
+        }
+        let to: Vec<u32> =
+            self.watching.get(&cell).map(|l| l.iter().copied().filter(|&j| j != from).collect()).unwrap_or_default();
+        for j in to {
+            self.give(j, from, step, record, now, out);
+        }
+        // It left the cells of those who watch its old cell and not its new one: they no longer wait for it
+        if let Some(c) = left {
+            let was: Vec<u32> = self.watching.get(&c).cloned().unwrap_or_default();
+            for j in was {
+                if j != from && !self.watchers.get(&j).is_some_and(|w| w.cells.contains(&cell)) {
+                    self.look(j, now, out);
+                }
+            }
+        }
+    }
+
+    /// The groups that waited INBOX_WAIT go out as they are; they then wait for the step after.
+    pub fn due(&mut self, now: Instant, out: &mut Out) {
+        let late: Vec<u32> = self
+            .watchers
+            .iter()
+            .filter(|(_, w)| w.since.is_some_and(|t| now.duration_since(t) >= INBOX_WAIT))
+            .map(|(&j, _)| j)
+            .collect();
+        for j in late {
+            let w = self.watchers.get_mut(&j).expect("listed");
+            flush(j, w, out);
+            if let Some(n) = w.next {
+                self.advance(j, n + 1, now, out);
+            }
+        }
+    }
+
+    fn give(&mut self, j: u32, from: u32, step: u32, record: &[u8], now: Instant, out: &mut Out) {
+        let w = self.watchers.get_mut(&j).expect("a watcher");
+        w.buf.extend_from_slice(record);
+        w.count += 1;
+        w.since.get_or_insert(now);
+        let before = w.given.get(&from).copied();
+        if before.is_none_or(|b| step > b) {
+            w.given.insert(from, step);
+        }
+        let next = *w.next.get_or_insert(step);
+        if step < next || w.count >= MAX_RECORDS {
+            flush(j, w, out); // late (or a republication): the agent waits for it now
+            return;
+        }
+        if before.is_none_or(|b| b < next) {
+            w.got += 1;
+        }
+        if w.got >= w.need {
+            self.look(j, now, out);
+        }
+    }
+
+    /// Whether agent `j`'s group has every state it waits for: then out it goes, and the next step's.
+    fn look(&mut self, j: u32, now: Instant, out: &mut Out) {
+        let Some(next) = self.watchers.get(&j).and_then(|w| w.next) else { return };
+        let (complete, need) = self.complete(j, next);
+        let w = self.watchers.get_mut(&j).expect("a watcher");
+        w.need = need;
+        if complete {
+            flush(j, w, out);
+            if need > 0 {
+                self.advance(j, next + 1, now, out);
+            } else {
+                // nobody to wait for: the next state sets the step again
+                w.next = None;
+                w.got = 0;
+            }
+        }
+    }
+
+    /// Agent `j`'s group now waits for step `next`; it may be complete already (a neighbour ran ahead).
+    fn advance(&mut self, j: u32, next: u32, now: Instant, out: &mut Out) {
+        let w = self.watchers.get_mut(&j).expect("a watcher");
+        w.next = Some(next);
+        w.got = w.given.values().filter(|&&s| s >= next).count();
+        // who is waited for changes with the step (an agent left behind no longer is): looked at anew
+        self.look(j, now, out);
+    }
+
+    /// (whether every agent `j` waits for at step `next` was given it, how many it waits for)
+    fn complete(&self, j: u32, next: u32) -> (bool, usize) {
+        let w = &self.watchers[&j];
+        let (mut complete, mut need) = (true, 0);
+        for c in &w.cells {
+            for &k in self.members.get(c).map(|l| l.as_slice()).unwrap_or_default() {
+                let Some(&(_, step)) = self.latest.get(&k) else { continue };
+                if k == j || step.saturating_add(1) < next {
+                    continue; // itself, or left behind: not waited for
+                }
+                need += 1;
+                complete &= w.given.get(&k).is_some_and(|&s| s >= next);
+            }
+        }
+        (complete, need)
+    }
+}
+
+fn flush(j: u32, w: &mut Watcher, out: &mut Out) {
+    w.since = None;
+    if w.count > 0 {
+        w.count = 0;
+        out.push((j, std::mem::take(&mut w.buf)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(id: u32, step: u32) -> Vec<u8> {
+        let mut s = [0.0; crate::sph::NFIELDS];
+        s[4] = 1.0;
+        crate::wire::encode_state(id, step, &s, 0).to_vec()
+    }
+
+    fn ids(out: &Out, to: u32) -> Vec<Vec<(u32, u32)>> {
+        out.iter()
+            .filter(|(j, _)| *j == to)
+            .map(|(_, b)| b.chunks(crate::wire::STATE_SIZE).map(|r| crate::wire::peek_id_step(r).unwrap()).collect())
+            .collect()
+    }
+
+    /// Agents 0, 1, 2 in cells (0,0), (1,0), (2,0); 0 watches (0,0) and (1,0), 1 all three.
+    fn three(t: Instant) -> (Inboxes, Out) {
+        let mut ib = Inboxes::default();
+        let mut out = Out::new();
+        ib.watch(0, vec![(0, 0), (1, 0)], t, &mut out);
+        ib.watch(1, vec![(0, 0), (1, 0), (2, 0)], t, &mut out);
+        for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
+            ib.state(k, 0, c, &rec(k, 0), t, &mut out);
+        }
+        (ib, out)
+    }
+
+    #[test]
+    fn a_step_goes_out_in_one_message_once_complete() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        // step 0: nobody was known before, so each state went out as it came; now all are members
+        out.clear();
+        ib.state(2, 1, (2, 0), &rec(2, 1), t, &mut out);
+        assert!(ids(&out, 1).is_empty()); // 1 waits for 0 and 2: 2 is in
+        ib.state(0, 1, (0, 0), &rec(0, 1), t, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(2, 1), (0, 1)]]);
+        assert!(ids(&out, 0).is_empty()); // 0 waits for 1
+        ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out);
+        assert_eq!(ids(&out, 0), vec![vec![(1, 1)]]);
+        assert!(ids(&out, 2).is_empty()); // 2 watches nothing: not an inbox agent
+    }
+
+    #[test]
+    fn a_late_state_goes_at_once_and_a_silent_agent_is_waited_for_once() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        for s in 1..=2 {
+            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
+                ib.state(k, s, c, &rec(k, s), t, &mut out);
+            }
+        }
+        out.clear();
+        // 2 falls silent at step 2: agent 1's step-3 group waits INBOX_WAIT, then goes out without it
+        ib.state(0, 3, (0, 0), &rec(0, 3), t, &mut out);
+        assert!(ids(&out, 1).is_empty());
+        ib.due(t + INBOX_WAIT / 2, &mut out);
+        assert!(ids(&out, 1).is_empty());
+        ib.due(t + INBOX_WAIT, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 3)]]);
+        out.clear();
+        // step 4 no longer waits for 2 (its latest step, 2, is behind)
+        ib.state(0, 4, (0, 0), &rec(0, 4), t, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 4)]]);
+        out.clear();
+        // 2's step-3 state, late: at once
+        ib.state(2, 3, (2, 0), &rec(2, 3), t, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(2, 3)]]);
+    }
+
+    #[test]
+    fn a_neighbour_that_moves_out_is_no_longer_waited_for_and_one_ahead_is_counted() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        out.clear();
+        // 1 moves to (5, 0), outside what 0 watches: 0's step-1 group must not wait for it
+        ib.state(0, 1, (0, 0), &rec(0, 1), t, &mut out);
+        ib.state(2, 1, (2, 0), &rec(2, 1), t, &mut out);
+        ib.state(1, 1, (5, 0), &rec(1, 1), t, &mut out);
+        // 0 heard nothing of step 1 (1's state is on a cell it does not watch): no message, but no longer waiting
+        assert!(ids(&out, 0).is_empty());
+        // back, a step ahead: its state of step 2 completes 0's group at once (0 waits for it alone)
+        ib.state(1, 2, (1, 0), &rec(1, 2), t, &mut out);
+        assert_eq!(ids(&out, 0), vec![vec![(1, 2)]]);
+    }
+
+    #[test]
+    fn watching_anew_changes_what_is_waited_for() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        out.clear();
+        ib.watch(0, vec![(0, 0)], t, &mut out); // 0 no longer hears 1
+        ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out);
+        assert!(ids(&out, 0).is_empty());
+        assert!(!ib.is_watching(2) && ib.is_watching(0));
+    }
+}
