@@ -14,7 +14,7 @@ AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/
 # the agent crate's records (wire.rs, command.rs, ...), so a change there rebuilds it too ($(STAMP) below).
 EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
-.PHONY: demo test install clean bench agent router-traffic fuzz netfault-tools lint fmt scenarios
+.PHONY: demo test check install clean bench agent router-traffic fuzz netfault-tools lint fmt scenarios
 
 # The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
 # agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
@@ -46,19 +46,26 @@ install: $(STAMP) $(AGENT_BIN) $(ROUTER_BIN)
 demo: install
 	$(BIN)/fluidswarm demo
 
-# Unit tests first (no processes, on both cores: pytest-xdist), then the swarm tests (tests/conftest.py draws
-# the line), one at a time: they measure stalls and recovery times in wall seconds. Both always run: the swarm
-# tests run even when a unit test failed, and `make test` fails if either did. The swarm tests list their
-# slowest ten: the target's budget is 10 minutes and it takes more (README, docs/benchmarks/native.md).
+# The tests in two runs (docs/development.md): first the unit tests (no processes) and the swarm tests that may
+# share the machine, two at a time (pytest-xdist, worksteal: a worker that runs out takes the other's queue);
+# then the swarm tests marked `alone` (tests/conftest.py ALONE: they measure stalls, recoveries and the
+# realtime factor in wall seconds, or inject faults whose effect is timed), one at a time. Both always run:
+# the second runs even when the first failed, and `make test` fails if either did. Each lists its slowest ten.
 # The crate's tests are its library's, tests/ and the doctests (`--lib --tests`, then `--doc`: cargo refuses them
 # in one call): a bare `cargo test` also builds the examples, bare_exchange one more thin-LTO link of zenoh (70 s
 # of 74 s on a fresh clone, cargo --timings) for no test; clippy --all-targets (make lint) compiles the examples.
 test: install router-traffic netfault-tools lint
 	$(CARGO) test --release --locked --lib --tests --manifest-path $(NATIVE)/Cargo.toml
 	$(CARGO) test --release --locked --doc --manifest-path $(NATIVE)/Cargo.toml
-	$(BIN)/python -m pytest -q -n 2 -m "not swarm" tests; unit=$$?; \
-	$(BIN)/python -m pytest -q -m "swarm and not every_scenario" --durations=10 tests; swarm=$$?; \
-	test $$unit -eq 0 -a $$swarm -eq 0
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not alone and not every_scenario" --durations=10 tests; \
+		shared=$$?; \
+	$(BIN)/python -m pytest -q -m "alone and not every_scenario" --durations=10 tests; alone=$$?; \
+	test $$shared -eq 0 -a $$alone -eq 0
+
+# The quick loop while changing code: the linters and the unit tests (no processes), on both cores; about
+# 2 minutes once installed. `make test` runs them too, and the swarm tests.
+check: lint
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not swarm" tests
 
 # Every small scenario end to end (make test runs one of each kind, tests/test_scenarios.py CORE)
 scenarios: install

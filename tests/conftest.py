@@ -34,6 +34,71 @@ DATASETS = REPO.parent / "shared" / "datasets"
 _SWARM_PROGRAMS = (Path(sys.executable).name, "python", "python3", "fluidswarm-agent", "zenohd")
 
 
+# Swarm tests that run alone (marker `alone`): `make test` runs every other test two at a time (pytest-xdist,
+# -n 2), then these one after the other. Each here measures wall seconds or CPU (stalls, recovery and detection
+# times, the realtime factor, wake-ups, a bench), injects a fault whose effect depends on timing (a freeze, a
+# kill, a partition, a lost router or recorder, a late joiner), or shares the machine itself (test_scenarios.py
+# runs its untimed scenarios three at a time, a module fixture that xdist would start once per worker). A key is
+# a test file, a test function (all its parameters) or one parametrized test; the reason says why.
+ALONE: dict[str, str] = {
+    "tests/test_agents.py::test_launch_with_default_options_every_agent_finishes_without_republishing_storms": (
+        "counts republished states, which a late neighbour causes"
+    ),
+    "tests/test_agents.py::test_sigkill_20_percent_at_step_100_the_rest_complete_and_recover": "recovery by timeouts",
+    "tests/test_agents.py::test_sigstop_one_agent_swarm_keeps_stepping_and_it_leaves_cleanly": "the longest stall",
+    "tests/test_agents.py::test_rogue_state_messages_are_dropped_counted_and_change_nothing": "no neighbour timeout",
+    "tests/test_bench.py": "a benchmark",
+    "tests/test_camera.py::test_camera_clip_switches_commands_as_the_arms_move_and_the_formation_follows": (
+        "a clip played as a live camera, the realtime factor"
+    ),
+    "tests/test_camera_hand.py": "videos played as a live camera, the realtime factor",
+    "tests/test_camera_hand_leaving.py": "a video played as a live camera: when the leaving is said",
+    "tests/test_coordinator_swarm.py::test_late_joiner_gets_the_command_within_one_second": "a latency",
+    "tests/test_coordinator_swarm.py::test_coordinator_publishes_a_new_command_when_the_gesture_changes": (
+        "a clip played at its frame rate"
+    ),
+    "tests/test_faults.py": "killed, frozen and lost processes, detected in wall seconds",
+    "tests/test_live.py::test_live_client_sees_the_steps_as_they_happen_and_the_mcap_is_complete": "as they happen",
+    "tests/test_multihost.py::test_losing_one_hosts_router_the_other_host_completes_and_logs_the_loss": "a lost host",
+    "tests/test_netfaults.py": "partitions against zenoh's lease, packet loss, a bandwidth cap",
+    "tests/test_one_wakeup.py": "wake-ups per step; busy loops on both cores",
+    "tests/test_perception_room_live.py": "formed in real time",
+    "tests/test_realtime.py": "the realtime factor",
+    "tests/test_recorder_swarm.py::test_recorder_complete_after_20_percent_killed": "killed agents",
+    "tests/test_ros2_out.py::test_a_ros2_router_lost_mid_run_is_one_line_and_the_mcap_is_complete": "a lost router",
+    "tests/test_scenarios.py": "stall criteria, async failures; its untimed runs share the machine three at a time",
+    "tests/test_split_run.py::test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents": (
+        "two launchers' ends, in time"
+    ),
+    "tests/test_workers_netns.py": "a host lost against zenoh's lease",
+}
+
+
+def _alone_reason(nodeid: str) -> str | None:
+    for key, reason in ALONE.items():
+        if nodeid == key or nodeid.startswith((key + "::", key + "[")):
+            return reason
+    return None
+
+
+@pytest.hookimpl(tryfirst=True)  # before `-m` selects: the marker it selects on must be there
+def pytest_collection_modifyitems(config, items):
+    seen: dict[Path, object] = {}
+    for item in items:
+        if item.get_closest_marker("swarm") and _alone_reason(item.nodeid) is not None:
+            item.add_marker(pytest.mark.alone)
+        seen.setdefault(Path(str(item.fspath)), item.module)
+    # A key that names a test function no longer there would quietly let its test share the machine: refuse it.
+    for key in ALONE:
+        path, _, rest = key.partition("::")
+        if not (REPO / path).is_file():
+            raise pytest.UsageError(f"tests/conftest.py ALONE names {path}, which does not exist")
+        module = seen.get(REPO / path)
+        name = rest.partition("[")[0]
+        if module is not None and name and not hasattr(module, name):
+            raise pytest.UsageError(f"tests/conftest.py ALONE names {key}, which is not a test of {path}")
+
+
 def _dataset(name: str) -> Path:
     path = DATASETS / name
     if not path.is_dir():
