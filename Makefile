@@ -34,6 +34,8 @@ agent: $(AGENT_BIN) $(ROUTER_BIN)
 # The router that counts the state messages crossing to other routers (`fluidswarm router --count-traffic`,
 # scripts/imitation_traffic.py): the same program with zenoh's statistics, which cost every message, so it is
 # a program of its own (agent/native/Cargo.toml, feature traffic); tests/test_router_traffic.py runs it.
+# Its build is mostly zenoh compiled again with statistics, one crate after another on one core (137 s on a
+# fresh clone; without LTO 129 s: the link is not what costs), so `make test` runs `make lint` beside it.
 ROUTER_TRAFFIC_BIN := $(NATIVE)/target/release/fluidswarm-router-traffic
 $(ROUTER_TRAFFIC_BIN): $(AGENT_SRC)
 	$(CARGO) build --release --locked --features traffic --bin fluidswarm-router-traffic --manifest-path $(NATIVE)/Cargo.toml
@@ -54,7 +56,12 @@ demo: install
 # The crate's tests are its library's, tests/ and the doctests (`--lib --tests`, then `--doc`: cargo refuses them
 # in one call): a bare `cargo test` also builds the examples, bare_exchange one more thin-LTO link of zenoh (70 s
 # of 74 s on a fresh clone, cargo --timings) for no test; clippy --all-targets (make lint) compiles the examples.
-test: install router-traffic netfault-tools lint
+# The counting router and the linters side by side (`-j2`; each's output in one piece): the router's build keeps
+# one core busy for most of its time, clippy's check build and mypy fill the other. clippy checks in a target
+# directory of its own (target/check), so neither cargo waits for the other's lock (a check build reuses none
+# of a release build's artifacts anyway).
+test: install netfault-tools
+	+$(MAKE) --no-print-directory -j2 --output-sync=target router-traffic lint
 	$(CARGO) test --release --locked --lib --tests --manifest-path $(NATIVE)/Cargo.toml
 	$(CARGO) test --release --locked --doc --manifest-path $(NATIVE)/Cargo.toml
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not alone and not every_scenario" --durations=10 tests; \
@@ -110,7 +117,8 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check . || fail=1; \
 	$(BIN)/mypy || fail=1; \
 	$(CARGO) fmt --all --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
-	$(CARGO) clippy --release --workspace --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml -- -D warnings || fail=1; \
+	$(CARGO) clippy --release --workspace --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml \
+		--target-dir $(NATIVE)/target/check -- -D warnings || fail=1; \
 	test $$fail -eq 0
 
 # The mechanical fixers: ruff's safe fixes (never --unsafe-fixes), then both formatters.
