@@ -66,6 +66,9 @@ ALONE: dict[str, str] = {
     "tests/test_realtime.py": "the realtime factor",
     "tests/test_recorder_swarm.py::test_recorder_complete_after_20_percent_killed": "killed agents",
     "tests/test_ros2_out.py::test_a_ros2_router_lost_mid_run_is_one_line_and_the_mcap_is_complete": "a lost router",
+    "tests/test_relay.py::test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_configuration": (
+        "no router's configuration in the shared temporary folder, where another test's router keeps one"
+    ),
     "tests/test_scenarios.py": "stall criteria, async failures; its untimed runs share the machine three at a time",
     "tests/test_split_run.py::test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents": (
         "two launchers' ends, in time"
