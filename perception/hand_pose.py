@@ -10,9 +10,9 @@ photograph (../shared/datasets/sign-language-digits, 1449), each read on a 640 x
 documented split's training part). Regenerate with `.venv/bin/python -m perception.hand_pose`.
 
 On the documented split (trained on its training photographs, tested on the others; 1448 of the 1449 have
-landmarks): 0.992 ten classes (396 of 399), 1.000 classes 0,1,2,4,5 (202) (the silhouette HOG classifier:
-0.990 and 0.9951). On 119 hands found in
-cluttered composites: 104 right, the silhouette classifier 103; where both agree (100), 97 right.
+landmarks, read by LiteRT): 0.990 ten classes (395 of 399), 1.000 classes 0,1,2,4,5 (202) (the silhouette
+HOG classifier: 0.990 and 0.9951). On 119 hands found in cluttered composites (OpenCV's landmarks): 104
+right, the silhouette classifier 103; where both agree (100), 97 right.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """A hand's 21 landmarks in one picture: MediaPipe's two-stage hand landmarker (palm detection, then the
-landmarks in a rotated crop round the palm), re-implemented on OpenCV's DNN module (perception/models.py).
+landmarks in a rotated crop round the palm), re-implemented round its two TFLite models (perception/models.py).
 
 The stages and their constants are MediaPipe's own (mediapipe/modules/palm_detection/palm_detection_cpu.pbtxt,
 hand_landmark/palm_detection_detection_to_roi.pbtxt, hand_landmark_cpu.pbtxt of the 0.10.21 release whose
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from perception.models import load_net
+from perception.models import run_model
 
 PALM_MODEL = "palm_detection_lite.tflite"
 LANDMARK_MODEL = "hand_landmark_lite.tflite"
@@ -113,9 +113,7 @@ def detect_palms(image_bgr: np.ndarray, min_score: float = PALM_SCORE) -> list[t
     """Palms in the picture: [(score, (18,) box centre x, y, w, h, 7 keypoints (x, y)) in pixels], best first."""
     rgb = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
     square, s, px, py = letterbox(rgb, PALM_SIZE)
-    net = load_net(PALM_MODEL)
-    net.setInput(cv2.dnn.blobFromImage(square, 1.0 / 255.0))
-    raw, logits = net.forward(["Identity", "Identity_1"])
+    raw, logits = run_model(PALM_MODEL, square, ("Identity", "Identity_1"))
     raw = raw.reshape(-1, 18).astype(np.float32)
     scores = 1.0 / (1.0 + np.exp(-np.clip(logits.reshape(-1), -100.0, 100.0)))
     good = np.nonzero(scores >= min_score)[0]
@@ -177,9 +175,7 @@ def landmarks_in(image_bgr: np.ndarray, box: tuple[float, float, float, float]) 
     m = _crop_matrix(box, LANDMARK_SIZE)
     rgb = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
     crop = cv2.warpAffine(rgb, m, (LANDMARK_SIZE, LANDMARK_SIZE), flags=cv2.INTER_LINEAR, borderValue=(0, 0, 0))
-    net = load_net(LANDMARK_MODEL)
-    net.setInput(cv2.dnn.blobFromImage(crop, 1.0 / 255.0))
-    pts, flag = net.forward(["Identity", "Identity_1"])
+    pts, flag = run_model(LANDMARK_MODEL, crop, ("Identity", "Identity_1"))
     xyz = pts.reshape(21, 3).astype(np.float32)
     inv = cv2.invertAffineTransform(m)
     xy = xyz[:, :2] @ inv[:, :2].T + inv[:, 2]

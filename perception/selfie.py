@@ -1,5 +1,5 @@
 """A person's silhouette from one frame, in front of any background: MediaPipe's selfie segmentation
-(`selfie_segmentation.tflite`, the 256 x 256 general model, perception/models.py) on OpenCV's DNN module.
+(`selfie_segmentation.tflite`, the 256 x 256 general model, perception/models.py).
 
 The frame is letterboxed into the model's square (its aspect kept, padded black), the model's per-pixel
 person probability mapped back to the frame and thresholded at 0.5; the person is the largest component
@@ -16,7 +16,7 @@ import numpy as np
 
 from perception.body_parts import split_body
 from perception.landmarks import letterbox
-from perception.models import load_net
+from perception.models import run_model
 from perception.segmentation import NoPersonError, PersonRegions
 
 MODEL = "selfie_segmentation.tflite"
@@ -29,9 +29,8 @@ def person_probability(frame_bgr: np.ndarray) -> np.ndarray:
     """(rows, cols) float32 in 0..1: the model's probability that each pixel is a person."""
     rgb = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2RGB)
     square, s, px, py = letterbox(rgb, SIZE)
-    net = load_net(MODEL)
-    net.setInput(cv2.dnn.blobFromImage(square, 1.0 / 255.0))
-    prob = np.asarray(net.forward()).reshape(SIZE, SIZE).astype(np.float32)
+    (out,) = run_model(MODEL, square, ("activation_10",))
+    prob = out.reshape(SIZE, SIZE).astype(np.float32)
     h, w = frame_bgr.shape[:2]
     x0, y0 = int(round(px)), int(round(py))
     x1, y1 = x0 + max(1, round(w * s)), y0 + max(1, round(h * s))
