@@ -6,7 +6,8 @@ background, its silhouette and the classifier's class; a hand moves, so no stati
 
 Frames are taken as they come (perception/stream.py, at most `--fps` per second). Each observed frame is
 read with the last `window` observed frames as a static-camera clip (coordinator/control/observe.py: the person's
-silhouette, arms and recognised pose); the person's box is tracked with the Kalman filter of
+silhouette, arms and recognised pose), or alone (perception/selfie.py) when they are no static camera's clip; the
+person's box is tracked with the Kalman filter of
 perception/tracking.py. A new command (next sequence number) is issued only when the recognised gesture
 changed and held for `label_hold` observations, or the silhouette changed beyond a threshold (its IoU with
 the last commanded one, or the tracked box moving or resizing, no sooner than `min_seconds` after the last
@@ -40,9 +41,9 @@ import numpy as np
 
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import Imitation, build_command, imitation_for
-from coordinator.control.observe import Observation, observe
+from coordinator.control.observe import Observation, body_observation, observe
 from fluidswarm.recording.coordinator_events import EVENTS_FILE, command_file
-from perception.segmentation import SegmentationError
+from perception.segmentation import MAX_MOVING_AWAY, SegmentationError, moving_away
 from perception.stream import FrameStream, StreamEnded, StreamError
 from perception.tracking import BoxKalman, box_to_centre
 
@@ -73,13 +74,17 @@ class ChangeRule:
 
 
 class LiveObserver:
-    """The newest frame read with the ones before it; None while there is nothing to see yet."""
+    """The newest frame read with the ones before it (background subtraction: a static camera, the reading
+    that sees the arms move); when they cannot be read so (nothing moves, no person-sized silhouette, or
+    the camera or the room moves: `moving_away`), the newest frame read alone (perception/selfie.py `person_in_frame`: a
+    person in front of any background); None while there is nothing to see yet."""
 
     subject = "person"
 
     def __init__(self, window: int):
         self.frames: deque = deque(maxlen=max(3, window))
         self.missing: str | None = None  # why the last frame showed no person
+        self.reading: str | None = None  # how the last person was read: "clip" | "frame"
 
     def observe(self, frame: np.ndarray) -> Observation | None:
         if self.frames and self.frames[-1].shape != frame.shape:
@@ -89,11 +94,33 @@ class LiveObserver:
             return None
         try:
             obs = observe(CLIP, list(self.frames))[-1]
-        except SegmentationError as exc:  # nothing moves yet, or no person: the swarm keeps its command
-            self.missing = str(exc)
-            return None
+        except SegmentationError as exc:
+            return self.one_frame(frame, str(exc))
+        # background subtraction takes what changes for the person: where much changes away from the
+        # person it found, the camera or the room moves and its silhouette is not to be trusted
+        away = moving_away(list(self.frames), obs.mask)
+        if away > MAX_MOVING_AWAY:
+            return self.one_frame(
+                frame,
+                f"no person found: the room moves ({away:.0%} of the picture away from the person changes, a "
+                f"static camera's at most {MAX_MOVING_AWAY:.0%})",
+            )
+        self.reading = "clip"
         self.missing = None if obs.mask.any() else "no person found: an empty silhouette"
         return obs if obs.mask.any() else None
+
+    def one_frame(self, frame: np.ndarray, clip_why: str) -> Observation | None:
+        """`frame` read alone; None (the swarm keeps its command), with both readings' reasons, if it
+        shows no person either."""
+        from perception.selfie import person_in_frame  # the model loads on first use
+
+        try:
+            regions = person_in_frame(frame)
+        except SegmentationError as exc:
+            self.missing = f"{clip_why}; {str(exc).removeprefix('no person found: ')}"
+            return None
+        self.missing, self.reading = None, "frame"
+        return body_observation(frame, regions)
 
 
 class HandObserver:

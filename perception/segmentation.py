@@ -171,6 +171,24 @@ def moving_masks(
     return out
 
 
+# Of the picture away from the person (beyond a 20th of the picture round the silhouette): what changes
+# there between the clip's median and its last frame. A static camera's clip: 0.011 median, 0.045 at most
+# (255 windows of 6 frames of the 28 shared Weizmann clips); a camera panning 24 px a frame across a room
+# (stripes, wood, skin-coloured wall, 3-6 frames): 0.03-0.38, mostly above 0.1.
+MAX_MOVING_AWAY = 0.06
+
+
+def moving_away(frames: list[np.ndarray], silhouette: np.ndarray) -> float:
+    """The share of the picture away from `silhouette` (the last frame's person) that differs from the
+    clip's median in the last frame: near 0 for a static camera, whatever the person does; 1.0 when the
+    silhouette leaves no picture away from it."""
+    frames = [f if f.ndim == 3 else cv2.cvtColor(f, cv2.COLOR_GRAY2BGR) for f in frames]
+    moving = moving_masks(frames[-1:], background_median(frames))[0]
+    k = max(3, (min(silhouette.shape) // 20) | 1)
+    near = cv2.dilate(silhouette.astype(np.uint8), np.ones((k, k), np.uint8)).astype(bool)
+    return float(moving[~near].mean()) if (~near).any() else 1.0
+
+
 def static_body(background: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
     """The still part of the person inside the median image: where it differs from a wall estimate (the
     median image median-filtered with a WALL_KERNEL window, which erases person-sized objects); the

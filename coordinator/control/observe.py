@@ -17,7 +17,7 @@ import numpy as np
 
 from perception.ellipses import fit_ellipse
 from perception.io import is_clip
-from perception.segmentation import hand_mask, person_regions
+from perception.segmentation import PersonRegions, hand_mask, person_regions
 from perception.skeleton import NAMES, feature_vector
 
 
@@ -68,25 +68,28 @@ def hand_label(mask: np.ndarray) -> str:
     return "+".join(on) or "blob"
 
 
+def body_observation(frame: np.ndarray, r: PersonRegions, index: int = 0) -> Observation:
+    """A person's Observation from one frame's regions (a clip's `person_regions` or one frame's
+    `perception.selfie.person_in_frame`): the head counts with the torso, the pose from the arms."""
+    head_row = float(np.nonzero(r.head)[0].mean()) if r.head is not None else None
+    torso = None
+    if r.torso is not None or r.head is not None:
+        torso = np.zeros(r.silhouette.shape, bool)
+        for m in (r.torso, r.head):
+            if m is not None:
+                torso |= m
+    parts = {
+        k: v
+        for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
+        if v is not None and v.any()
+    }
+    return Observation("body", r.silhouette.astype(bool), body_label(parts, head_row), frame, parts, index)
+
+
 def observe(path: str | Path, frames: list[np.ndarray]) -> list[Observation]:
     """One Observation per frame. Raises perception's InputError / SegmentationError."""
     if is_clip(path, frames):
-        out = []
-        for i, (f, r) in enumerate(zip(frames, person_regions(frames))):
-            head_row = float(np.nonzero(r.head)[0].mean()) if r.head is not None else None
-            torso = None
-            if r.torso is not None or r.head is not None:
-                torso = np.zeros(r.silhouette.shape, bool)
-                for m in (r.torso, r.head):
-                    if m is not None:
-                        torso |= m
-            parts = {
-                k: v
-                for k, v in (("torso", torso), ("left_arm", r.left_arm), ("right_arm", r.right_arm))
-                if v is not None and v.any()
-            }
-            out.append(Observation("body", r.silhouette.astype(bool), body_label(parts, head_row), f, parts, i))
-        return out
+        return [body_observation(f, r, i) for i, (f, r) in enumerate(zip(frames, person_regions(frames)))]
 
     out = []
     for i, f in enumerate(frames):
