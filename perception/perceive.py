@@ -1,6 +1,8 @@
 """What `fluidswarm perceive` finds and draws, for a hand photograph and for a clip of a person.
 
-Hand: silhouette, class and confidence (eigen classifier), palm and finger ellipses, critical points
+Hand: silhouette, class and confidence (eigen classifier; a photograph the plain-background reading refuses
+-- clutter, a room -- is read by the learned one, `find_hand`'s second: perception/hand_detector.py), palm and
+finger ellipses, critical points
 (first joints, finger tips, centre of mass), skeleton feature vector and the ANN's body-force command.
 Clip: per-frame body ellipses (torso, head, arms) from `person_regions`, the Kalman-tracked bounding box,
 a contact sheet of up to SHEET_FRAMES frames.
@@ -17,6 +19,8 @@ from perception.ann import GestureANN
 from perception.eigen import EigenClassifier, default_model
 from perception.ellipses import Ellipse, body_regions, hand_regions
 from perception.features import to_work_size
+from perception.hand import NoHandError, plain_hand
+from perception.hand_detector import LearnedHand, learned_hand
 from perception.io import load_frames, load_image
 from perception.segmentation import hand_mask, person_regions
 from perception.skeleton import feature_vector
@@ -74,15 +78,23 @@ def perceive_hand(path: Path, model: str | None = None) -> tuple[list[str], np.n
     if max(img.shape[:2]) > 400:  # work at a sane size; coordinates are reported in this picture's pixels
         f = 400 / max(img.shape[:2])
         img = cv2.resize(img, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
-    mask = hand_mask(img)
     clf = EigenClassifier.load(model) if model else default_model()
-    label, conf = clf.predict_features(clf.features([to_work_size(img)]))
+    found: LearnedHand | str | None = None
+    try:
+        plain_hand(img, clf)
+    except NoHandError:  # not a plain, bright background (clutter, a room): the learned reading, if it finds one
+        found = learned_hand(img, clf)
+    if isinstance(found, LearnedHand):
+        reading, mask, label, conf = "learned", found.mask, [found.label], [found.confidence]
+    else:  # the shared photographs' kind, or nothing the learned reading takes for a hand: as it always was
+        reading, mask = "plain", hand_mask(img)
+        label, conf = clf.predict_features(clf.features([to_work_size(img)]))
     regions = hand_regions(mask)
     fv = feature_vector(mask)
     force = GestureANN.load()(fv)
     pts = regions["critical_points"]
     lines = [
-        f"image={path} size={img.shape[1]}x{img.shape[0]} silhouette_area={int(mask.sum())}",
+        f"image={path} size={img.shape[1]}x{img.shape[0]} silhouette_area={int(mask.sum())} reading={reading}",
         f"class={label[0]} confidence={conf[0]:.2f}",
         f"palm {_fmt(regions['palm'])}",
     ]

@@ -213,3 +213,22 @@ def test_a_persons_arm_pose_is_read_from_one_frame_in_front_of_clutter(weizmann)
                 right += body_label(parts, head_row) == want[pose]
     print(f"poses read right {right} of {total}")
     assert total == 3 * 59 and right >= 0.8 * total, (right, total)  # measured 151 of 177
+
+
+def test_perceive_reads_a_cluttered_photo_with_the_learned_reading(shared_hands, tmp_path):
+    """`fluidswarm perceive` on a photograph of a hand in a room: the learned reading's silhouette and class
+    (before issue 50's wiring: hand_mask's segmentation of the wall); a shared photograph: as before."""
+    from perception.perceive import perceive_hand
+
+    frame, truth = composite(held_out(shared_hands, 5), "skin", 1)
+    path = tmp_path / "room.png"
+    cv2.imwrite(str(path), frame)
+    lines, picture = perceive_hand(path)
+    assert "reading=learned" in lines[0] and lines[1].startswith("class=5 "), lines[:2]
+    small = cv2.resize(truth.astype(np.uint8), (400, 300), interpolation=cv2.INTER_NEAREST).astype(bool)
+    area = int(lines[0].split("silhouette_area=")[1].split()[0])
+    assert abs(area - small.sum()) < 0.2 * small.sum(), (area, small.sum())  # perceive works at 400 px at most
+    assert picture.shape[:2] == (300, 400)
+    files = sorted(p for p in (shared_hands / "5").iterdir() if is_test_file(p.name))
+    lines, _ = perceive_hand(files[0])
+    assert "reading=plain" in lines[0] and lines[1].startswith("class=5 "), lines[:2]
