@@ -60,6 +60,8 @@ def test_the_spec_is_checked_and_written_by_the_agents_own_decoder():
         robot={"kind": "unicycle", "radius": 0.3},
         radio={"loss": 0.1, "latency": 2, "noise": 0.05, "seed": 2**64 - 1},
         obstacles=[{"kind": "circle", "centre": [5, 5], "radius": 0.5}],
+        state_key_ids=True,
+        inbox=True,
     )
     text = spec.to_json()
     fields = json.loads(text)
@@ -71,6 +73,7 @@ def test_the_spec_is_checked_and_written_by_the_agents_own_decoder():
     assert again.timeout == _native.SPEC_DEFAULT_TIMEOUT and again.rate == _native.SPEC_DEFAULT_RATE
     plain = json.loads(AgentSpec(run="r", id=0, connect=["tcp/h:1"], steps=0, initial=[0, 0, 0, 0]).to_json())
     assert plain["robot"] == {} and "radio" not in plain and "obstacles" not in plain  # the spec as before
+    assert "inbox" not in plain  # written only when set: an older agent reads the spec
     for bad, named in (
         ({"id": 8192}, "id must be an integer in [0, 8192)"),
         ({"params": {"h": -1}}, "params.h must be > 0"),

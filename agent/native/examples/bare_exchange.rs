@@ -147,9 +147,14 @@ fn main() {
             .declare_subscriber(key)
             .callback(move |s| {
                 let data = s.payload().to_bytes();
+                // an inbox message has a header (relay/inboxes.rs); a cell's message is one record
+                let records = match by_inbox {
+                    true => fluidswarm_agent::relay::inboxes::parse(&data).map(|(_, r)| r).unwrap_or_default(),
+                    false => &data[..],
+                };
                 let mut k = ib.counts.lock().unwrap();
                 let mut completes = false;
-                for record in data.chunks(wire::STATE_SIZE) {
+                for record in records.chunks(wire::STATE_SIZE) {
                     let Some((_, step)) = wire::peek_id_step(record) else { return };
                     k.total += 1;
                     let slot = &mut k.per_round[(step % 4) as usize];

@@ -457,25 +457,28 @@ impl Shell {
     fn declare_inbox(&mut self, shared: &Arc<Shared>) -> Result<KeyExpr<'static>, String> {
         let sh = Arc::clone(shared);
         let exact = keys::inbox_key(&self.run, self.id);
+        let clock_key = format!("{}/{}/ctl/clock", keys::PREFIX, self.run);
         let key = self.session.declare_keyexpr(exact.clone()).wait().map_err(zerr)?;
         let sub = self
             .session
             .declare_subscriber(key)
             .callback(move |sample| {
                 // Only the router's relay puts on our exact inbox key (docs/security.md); a put on a wildcard
-                // key reaches us too. A message that is not whole records, or too many, goes to the core as one
-                // record, which it refuses and counts (`length`, `version` or `key`), as a bad state on a cell.
+                // key reaches us too. A message that is not an inbox message (relay/inboxes.rs `parse`) goes to
+                // the core as one record, which it refuses and counts (`length`, `version` or `key`), as a bad
+                // state on a cell. A clock in it (the header has room; the relay sets none yet) is a ctl/clock.
                 let on_key = sample.key_expr().as_str() == exact;
                 let data = sample.payload().to_bytes();
-                let whole = !data.is_empty()
-                    && data.len().is_multiple_of(wire::STATE_SIZE)
-                    && data.len() <= crate::relay::inboxes::MAX_RECORDS * wire::STATE_SIZE;
                 sh.deliver(|inbox| {
-                    if !(on_key && whole) {
-                        return inbox.push_state(data.into_owned(), on_key);
-                    }
+                    let Some((clock, records)) = crate::relay::inboxes::parse(&data).filter(|_| on_key) else {
+                        return inbox.push_state(data.to_vec(), on_key);
+                    };
                     let mut ring = false;
-                    for record in data.chunks(wire::STATE_SIZE) {
+                    if let Some(c) = clock {
+                        let payload = crate::ctl::encode(&crate::ctl::Ctl::Clock(c));
+                        ring |= inbox.push(Input::Ctl { key: clock_key.clone(), payload }, true);
+                    }
+                    for record in records.chunks(wire::STATE_SIZE) {
                         ring |= inbox.push_state(record.to_vec(), true);
                     }
                     ring

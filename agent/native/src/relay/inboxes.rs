@@ -11,6 +11,12 @@
 //! step-`next` state, or INBOX_WAIT after the group's first state. A state older than the step the group
 //! waits for (a late one, a republication) goes out at once with whatever is pending. An agent that stopped
 //! sending (dead, frozen) is waited for once, INBOX_WAIT, then no more: its latest step falls behind.
+//!
+//! The launcher's pacing clock (`ctl/clock`, ~one tick per step) still reaches each agent on its own and wakes
+//! it once more; the header has room for it to ride along (tried, not landed: branch issue-49-clock-riding).
+//!
+//! An inbox message (v1, little-endian): u8 version = 1, u8 kind = 3, u16 flags (bit 0: the clock is set; never yet),
+//! u32 reserved (0), u64 clock, then whole 104-byte state records (at most MAX_RECORDS).
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -23,6 +29,35 @@ type Cell = (i64, i64);
 pub const INBOX_WAIT: Duration = Duration::from_millis(60);
 /// At most this many records in one message (the agent refuses more): a full group goes out.
 pub const MAX_RECORDS: usize = 1024;
+pub const VERSION: u8 = 1;
+pub const KIND_INBOX: u8 = 3;
+pub const HEADER: usize = 16;
+
+/// An inbox message's header: the clock if set.
+pub fn header(clock: Option<u64>) -> [u8; HEADER] {
+    let mut h = [0u8; HEADER];
+    h[0] = VERSION;
+    h[1] = KIND_INBOX;
+    h[2] = u8::from(clock.is_some());
+    h[8..].copy_from_slice(&clock.unwrap_or(0).to_le_bytes());
+    h
+}
+
+/// (the clock if set, the records) of an inbox message from the network, None if it is not one (a wrong
+/// header, not whole records, more than MAX_RECORDS). The records are checked one by one by the agent's core.
+pub fn parse(data: &[u8]) -> Option<(Option<u64>, &[u8])> {
+    let (h, records) = (data.get(..HEADER)?, &data[HEADER..]);
+    let flags = u16::from_le_bytes([h[2], h[3]]);
+    if h[0] != VERSION || h[1] != KIND_INBOX || flags > 1 || h[4..8] != [0; 4] {
+        return None;
+    }
+    let whole = records.len().is_multiple_of(crate::wire::STATE_SIZE);
+    if !whole || records.len() > MAX_RECORDS * crate::wire::STATE_SIZE {
+        return None;
+    }
+    let clock = u64::from_le_bytes(h[8..].try_into().expect("8 bytes"));
+    Some(((flags == 1).then_some(clock), records))
+}
 
 /// One agent's inbox.
 #[derive(Default)]
@@ -207,7 +242,10 @@ fn flush(j: u32, w: &mut Watcher, out: &mut Out) {
     w.since = None;
     if w.count > 0 {
         w.count = 0;
-        out.push((j, std::mem::take(&mut w.buf)));
+        let mut message = Vec::with_capacity(HEADER + w.buf.len());
+        message.extend_from_slice(&header(None));
+        message.append(&mut w.buf);
+        out.push((j, message));
     }
 }
 
@@ -224,7 +262,10 @@ mod tests {
     fn ids(out: &Out, to: u32) -> Vec<Vec<(u32, u32)>> {
         out.iter()
             .filter(|(j, _)| *j == to)
-            .map(|(_, b)| b.chunks(crate::wire::STATE_SIZE).map(|r| crate::wire::peek_id_step(r).unwrap()).collect())
+            .map(|(_, b)| {
+                let (_, records) = parse(b).expect("an inbox message");
+                records.chunks(crate::wire::STATE_SIZE).map(|r| crate::wire::peek_id_step(r).unwrap()).collect()
+            })
             .collect()
     }
 
@@ -297,6 +338,24 @@ mod tests {
         // back, a step ahead: its state of step 2 completes 0's group at once (0 waits for it alone)
         ib.state(1, 2, (1, 0), &rec(1, 2), t, &mut out);
         assert_eq!(ids(&out, 0), vec![vec![(1, 2)]]);
+    }
+
+    #[test]
+    fn an_inbox_message_is_parsed_or_refused_whole() {
+        let mut m = header(Some(9)).to_vec();
+        m.extend(rec(1, 2));
+        assert_eq!(parse(&m), Some((Some(9), &rec(1, 2)[..])));
+        assert_eq!(parse(&header(None)), Some((None, &[][..])));
+        assert_eq!(parse(&m[..m.len() - 1]), None); // not whole records
+        assert_eq!(parse(&m[..10]), None);
+        for (at, bad) in [(0, 2), (1, 1), (2, 2), (5, 1)] {
+            let mut b = m.clone();
+            b[at] = bad;
+            assert_eq!(parse(&b), None, "byte {at}");
+        }
+        let mut big = header(None).to_vec();
+        big.extend(std::iter::repeat_n(rec(1, 1), MAX_RECORDS + 1).flatten());
+        assert_eq!(parse(&big), None);
     }
 
     #[test]
