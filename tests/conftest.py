@@ -74,6 +74,10 @@ ALONE: dict[str, str] = {
         "two launchers' ends, in time"
     ),
     "tests/test_workers_netns.py": "a host lost against zenoh's lease",
+    "tests/test_workers.py::test_an_imitation_with_one_worker_finishes_every_agent_and_refuses_bad_workers": (
+        "a late worker races the run's end: beside another test the run can end before it asks, and it then waits"
+        " for a main host as long as the test waits for it (a fresh clone's CI, 71f05d9)"
+    ),
 }
 
 
