@@ -193,21 +193,26 @@ impl Inboxes {
         }
     }
 
-    /// Whether agent `j`'s group has every state it waits for: then out it goes, and the next step's.
-    fn look(&mut self, j: u32, now: Instant, out: &mut Out) {
-        let Some(next) = self.watchers.get(&j).and_then(|w| w.next) else { return };
-        let (complete, need) = self.complete(j, next);
-        let w = self.watchers.get_mut(&j).expect("a watcher");
-        w.need = need;
-        if complete {
+    /// Whether agent `j`'s group has every state it waits for: then out it goes, and the next step's (a
+    /// neighbour ran ahead, or `j` was frozen: a loop, not a call per step, however far behind it is).
+    fn look(&mut self, j: u32, _now: Instant, out: &mut Out) {
+        loop {
+            let Some(next) = self.watchers.get(&j).and_then(|w| w.next) else { return };
+            let (complete, need) = self.complete(j, next);
+            let w = self.watchers.get_mut(&j).expect("a watcher");
+            w.need = need;
+            if !complete {
+                return;
+            }
             flush(j, w, out);
-            if need > 0 {
-                self.advance(j, next + 1, now, out);
-            } else {
+            if need == 0 {
                 // nobody to wait for: the next state sets the step again
                 w.next = None;
                 w.got = 0;
+                return;
             }
+            w.next = Some(next + 1);
+            w.got = w.given.values().filter(|&&s| s > next).count();
         }
     }
 
@@ -338,6 +343,20 @@ mod tests {
         // back, a step ahead: its state of step 2 completes 0's group at once (0 waits for it alone)
         ib.state(1, 2, (1, 0), &rec(1, 2), t, &mut out);
         assert_eq!(ids(&out, 0), vec![vec![(1, 2)]]);
+    }
+
+    #[test]
+    fn a_group_far_behind_catches_up_in_one_look() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        out.clear();
+        // 1 and 2 (agent 1's only other members than 0) ran 100000 steps ahead while the relay waited for 0
+        ib.state(2, 100_000, (2, 0), &rec(2, 100_000), t, &mut out);
+        ib.state(0, 100_000, (0, 0), &rec(0, 100_000), t, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(2, 100_000), (0, 100_000)]]);
+        out.clear();
+        ib.state(0, 100_001, (0, 0), &rec(0, 100_001), t, &mut out); // waits for 2's step 100001 now
+        assert!(out.is_empty());
     }
 
     #[test]
