@@ -296,29 +296,17 @@ impl InboxRelay {
         }
     }
 
-    fn watch(&self, session: &Session, id: u32, cells: Vec<(i64, i64)>) {
+    /// Run `f` on the inboxes and put what it made, under the one lock.
+    fn with(&self, session: &Session, f: impl FnOnce(&mut Inboxes, &mut inboxes::Out)) {
         let mut guard = self.inner.lock().expect("inbox lock");
         let (inboxes, keys_of) = &mut *guard;
         let mut out = inboxes::Out::new();
-        inboxes.watch(id, cells, Instant::now(), &mut out);
-        Self::put_all(session, &self.run, keys_of, out);
-    }
-
-    fn state(&self, session: &Session, from: u32, cell: (i64, i64), record: &[u8]) {
-        let Some((_, step)) = wire::peek_id_step(record) else { return };
-        let mut guard = self.inner.lock().expect("inbox lock");
-        let (inboxes, keys_of) = &mut *guard;
-        let mut out = inboxes::Out::new();
-        inboxes.state(from, step, cell, record, Instant::now(), &mut out);
+        f(inboxes, &mut out);
         Self::put_all(session, &self.run, keys_of, out);
     }
 
     fn due(&self, session: &Session, now: Instant) {
-        let mut guard = self.inner.lock().expect("inbox lock");
-        let (inboxes, keys_of) = &mut *guard;
-        let mut out = inboxes::Out::new();
-        inboxes.due(now, &mut out);
-        Self::put_all(session, &self.run, keys_of, out);
+        self.with(session, |ib, out| ib.due(now, out));
     }
 }
 
@@ -345,11 +333,12 @@ fn relay_subscriber(
     session
         .declare_subscriber(expr)
         .callback(move |sample: Sample| {
-            let Some((from, c)) = table.route(sample.key_expr().as_str(), &sample.payload().to_bytes()) else {
+            let record = sample.payload().to_bytes();
+            let Some((from, c)) = table.route(sample.key_expr().as_str(), &record) else {
                 return;
             };
-            if let Some(inboxes) = &inboxes {
-                inboxes.state(&out, from, c, &sample.payload().to_bytes());
+            if let (Some(inboxes), Some((_, step))) = (&inboxes, wire::peek_id_step(&record)) {
+                inboxes.with(&out, |ib, put| ib.state(from, step, c, &record, Instant::now(), put));
             }
             let key = {
                 let mut cells = cells.lock().expect("cells lock");
@@ -365,7 +354,7 @@ fn relay_subscriber(
             // usize::MAX: never full here; the Batcher's thread sends every batch, so that this thread, which
             // every state of the run goes through, never waits on a batch's put (measured: sending full
             // batches here cost the router 10-20 µs more per agent-step at N = 300)
-            batch.lock().expect("batch lock").push(&payload.to_bytes(), usize::MAX, Instant::now());
+            batch.lock().expect("batch lock").push(&record, usize::MAX, Instant::now());
             // REMOTE: nobody on the router's own session listens to cells. BLOCK, as the agents put their
             // states: a neighbour's full queue delays a state, never drops it.
             let _ = out
@@ -399,7 +388,7 @@ impl StateRelay {
             .declare_subscriber(format!("{}/{}/watch/*", keys::PREFIX, table.run))
             .callback(move |sample: Sample| {
                 if let Some((id, cells)) = t.watched(sample.key_expr().as_str(), &sample.payload().to_bytes()) {
-                    ib.watch(&own, id, cells);
+                    ib.with(&own, |inboxes, out| inboxes.watch(id, cells, Instant::now(), out));
                 }
             })
             .wait()?;
