@@ -14,14 +14,24 @@ AGENT_SRC := $(NATIVE)/Cargo.toml $(NATIVE)/Cargo.lock $(wildcard $(NATIVE)/src/
 # the agent crate's records (wire.rs, command.rs, ...), so a change there rebuilds it too ($(STAMP) below).
 EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
-.PHONY: demo test check install clean bench agent router-traffic fuzz netfault-tools lint fmt scenarios
+.PHONY: demo test check install clean bench agent router-traffic crate-tests fuzz netfault-tools lint fmt scenarios
 
-# The editable install builds the programs too (setuptools-rust, pyproject.toml: the same release build in
-# agent/native/target, so the cargo rule below then finds it done); the dev path runs them from there.
+# clippy's target directory (make lint): a check build reuses none of a release build's artifacts, so it has one
+# of its own, and the extension's release build goes there too (its build scripts and proc-macros, pyo3's, are
+# the ones clippy needs).
+CHECK_DIR := $(CURDIR)/$(NATIVE)/target/check
+
+# The editable install: the Python dependencies and the extension module (pip, setuptools-rust). The programs
+# are not pip's here (FLUIDSWARM_PROGRAMS=cargo, setup.py) but cargo's rule below, so that `make install` runs the
+# two builds side by side (-j2): the programs' build alone keeps the 2 cores 1.8 busy (cargo --timings), pip's
+# dependencies and the extension fill the rest instead of waiting for it (a fresh clone: 318 s, then 22 s and
+# 47 s). The extension builds in $(CHECK_DIR), so neither cargo waits for the other's lock. The dev path runs the
+# programs from agent/native/target/release (swarmhost/executable.py).
 $(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC) $(AGENT_SRC)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
+	FLUIDSWARM_PROGRAMS=cargo CARGO_TARGET_DIR=$(CHECK_DIR) \
+		$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
 	touch $(STAMP)
 
 # One cargo build makes both programs: the agent and the router of access level acl (swarmhost/router_process.py)
@@ -34,40 +44,50 @@ agent: $(AGENT_BIN) $(ROUTER_BIN)
 # The router that counts the state messages crossing to other routers (`fluidswarm router --count-traffic`,
 # scripts/imitation_traffic.py): the same program with zenoh's statistics, which cost every message, so it is
 # a program of its own (agent/native/Cargo.toml, feature traffic); tests/test_router_traffic.py runs it.
-# Its build is mostly zenoh compiled again with statistics, one crate after another on one core (137 s on a
-# fresh clone; without LTO 129 s: the link is not what costs), so `make test` runs `make lint` beside it.
+# Its build (137 s of a fresh clone, cargo --timings) is zenoh-transport and zenoh compiled again with statistics,
+# one after the other on one core (73 s), then its own link on both (70 s): the release build's dependencies are
+# LLVM bitcode only (every root of it is thin-LTO), so each program's link generates the machine code of all of
+# zenoh (with -C lto=off still 62 s). `make test` builds it in cargo's lane, beside make lint.
 ROUTER_TRAFFIC_BIN := $(NATIVE)/target/release/fluidswarm-router-traffic
-$(ROUTER_TRAFFIC_BIN): $(AGENT_SRC)
+$(ROUTER_TRAFFIC_BIN): $(AGENT_SRC) | $(AGENT_BIN)
 	$(CARGO) build --release --locked --features traffic --bin fluidswarm-router-traffic --manifest-path $(NATIVE)/Cargo.toml
 	touch $(ROUTER_TRAFFIC_BIN)
 
 router-traffic: $(ROUTER_TRAFFIC_BIN)
 
-install: $(STAMP) $(AGENT_BIN) $(ROUTER_BIN)
+# The Python side and the programs side by side (above)
+install:
+	+$(MAKE) --no-print-directory -j2 $(STAMP) $(AGENT_BIN)
 
 demo: install
 	$(BIN)/fluidswarm demo
 
-# The tests in two runs (docs/development.md): first the unit tests (no processes) and the swarm tests that may
+# make test first builds and checks in two lanes side by side on the 2 cores (make -j2, each target's output
+# in one piece): cargo's lane, one target directory and its lock: the programs, the counting router, the crate's
+# tests; the Python lane: pip (the dependencies, the extension module in target/check), then make lint (its
+# clippy in target/check too). Every build is CPU-bound, so the lanes only fill each other's idle core: the
+# programs' build and the counting router's leave one idle while a big crate (zenoh, 54-59 s) compiles alone.
+# Then the tests in two runs (docs/development.md): the unit tests (no processes) and the swarm tests that may
 # share the machine, two at a time (pytest-xdist, worksteal: a worker that runs out takes the other's queue);
 # then the swarm tests marked `alone` (tests/conftest.py ALONE: they measure stalls, recoveries and the
 # realtime factor in wall seconds, or inject faults whose effect is timed), one at a time. Both always run:
 # the second runs even when the first failed, and `make test` fails if either did. Each lists its slowest ten.
-# The crate's tests are its library's, tests/ and the doctests (`--lib --tests`, then `--doc`: cargo refuses them
-# in one call): a bare `cargo test` also builds the examples, bare_exchange one more thin-LTO link of zenoh (70 s
-# of 74 s on a fresh clone, cargo --timings) for no test; clippy --all-targets (make lint) compiles the examples.
-# The counting router and the linters side by side (`-j2`; each's output in one piece): the router's build keeps
-# one core busy for most of its time, clippy's check build and mypy fill the other. clippy checks in a target
-# directory of its own (target/check), so neither cargo waits for the other's lock (a check build reuses none
-# of a release build's artifacts anyway).
-test: install netfault-tools
-	+$(MAKE) --no-print-directory -j2 --output-sync=target router-traffic lint
-	$(CARGO) test --release --locked --lib --tests --manifest-path $(NATIVE)/Cargo.toml
-	$(CARGO) test --release --locked --doc --manifest-path $(NATIVE)/Cargo.toml
+test: netfault-tools
+	+$(MAKE) --no-print-directory -j2 --output-sync=target $(STAMP) $(AGENT_BIN) lint router-traffic crate-tests
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not alone and not every_scenario" --durations=10 tests; \
 		shared=$$?; \
 	$(BIN)/python -m pytest -q -m "alone and not every_scenario" --durations=10 tests; alone=$$?; \
 	test $$shared -eq 0 -a $$alone -eq 0
+
+# The crate's tests are its library's, tests/ and the doctests (`--lib --tests`, then `--doc`: cargo refuses them
+# in one call): a bare `cargo test` also builds the examples, bare_exchange one more thin-LTO link of zenoh (70 s
+# of 74 s on a fresh clone, cargo --timings) for no test; clippy --all-targets (make lint) compiles the examples.
+# After the counting router (order only): the same target directory, whose lock the two would otherwise wait on.
+# MAKEFLAGS= for the doctests: under make -j2 it names a jobserver whose descriptors a recipe without `+` does
+# not get, and rustdoc warns about them (cargo, as in the other lane, runs its own jobs).
+crate-tests: | $(ROUTER_TRAFFIC_BIN)
+	$(CARGO) test --release --locked --lib --tests --manifest-path $(NATIVE)/Cargo.toml
+	MAKEFLAGS= $(CARGO) test --release --locked --doc --manifest-path $(NATIVE)/Cargo.toml
 
 # The quick loop while changing code: the linters and the unit tests (no processes), on both cores; about
 # 2 minutes once installed. `make test` runs them too, and the swarm tests.
@@ -118,7 +138,7 @@ lint: $(STAMP)
 	$(BIN)/mypy || fail=1; \
 	$(CARGO) fmt --all --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
 	$(CARGO) clippy --release --workspace --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml \
-		--target-dir $(NATIVE)/target/check -- -D warnings || fail=1; \
+		--target-dir $(CHECK_DIR) -- -D warnings || fail=1; \
 	test $$fail -eq 0
 
 # The mechanical fixers: ruff's safe fixes (never --unsafe-fixes), then both formatters.

@@ -2,6 +2,11 @@
 
 cargo is taken from PATH, else from rustup's default place (~/.cargo/bin; a fresh shell may not have it on
 PATH yet, the Makefile does the same). The programs themselves are [[tool.setuptools-rust.bins]].
+
+FLUIDSWARM_PROGRAMS=cargo (the Makefile's editable install): pip builds the extension module only, and the
+Makefile builds the programs with cargo beside it (agent/native/target/release, where swarmhost/executable.py
+looks first): the two builds then share the 2 cores instead of one waiting for the other (docs/development.md).
+A wheel (`pip install .`) still carries both programs.
 """
 
 import os
@@ -12,6 +17,7 @@ from setuptools import setup
 from setuptools.command.build_ext import build_ext
 
 RUSTUP_BIN = Path.home() / ".cargo" / "bin"
+PROGRAMS_ENV = "FLUIDSWARM_PROGRAMS"
 
 
 class build_ext_with_cargo(build_ext):  # setuptools-rust's build_ext builds on this one
@@ -23,6 +29,11 @@ class build_ext_with_cargo(build_ext):  # setuptools-rust's build_ext builds on 
                 "fluidswarm: building its agent and router programs needs a Rust toolchain "
                 "(cargo and rustc on PATH): install one from https://rustup.rs, then pip install again"
             )
+        if os.environ.get(PROGRAMS_ENV) == "cargo":
+            from setuptools_rust import RustBin
+
+            dist = self.distribution
+            dist.rust_extensions = [e for e in dist.rust_extensions if not isinstance(e, RustBin)]  # type: ignore[attr-defined]
         super().run()
 
 
