@@ -58,6 +58,24 @@ def test_the_landmarks_of_a_raised_five_lie_on_its_fingers(shared_hands):
     assert all(pts[f[-1], 1] < wrist_y - 0.5 * hands[0].palm_length() for f in FINGERS[1:])  # tips above the wrist
 
 
+def test_a_small_hand_on_wood_is_found_in_the_bottom_corners_squares(shared_hands, monkeypatch):
+    """A held-out 0 on wood: neither the whole frame nor the squares at its ends give a palm the landmark
+    model confirms; the squares at the bottom corners (a hand raised into a camera's picture comes in from
+    its bottom edge: a larger palm there) do, and its landmarks lie on the hand."""
+    import perception.landmarks as lmk
+
+    frame, truth = composite(held_out(shared_hands, 0), "wood", 30)
+    views = lmk.palm_views(frame)
+    assert [(x0, y0, v.shape[:2]) for x0, y0, v in views[3:]] == [(0, 120, (360, 360)), (280, 120, (360, 360))]
+    hands = find_landmarks(frame)
+    assert len(hands) == 1 and hands[0].presence >= 0.5
+    pts = hands[0].points
+    inside = truth[np.clip(pts[:, 1].astype(int), 0, 479), np.clip(pts[:, 0].astype(int), 0, 639)]
+    assert inside.mean() >= 0.8, inside
+    monkeypatch.setattr(lmk, "palm_views", lambda image: views[:3])  # the views before issue 50's session 3
+    assert find_landmarks(frame) == []
+
+
 def test_hands_in_front_of_clutter_are_found_with_their_silhouettes_and_classes(shared_hands, clf):
     """12 composites (three cluttered families, four held-out photographs): the plain reading refuses every
     one, as before; the learned one finds some, cuts them out and names them right (bench-perception: the
