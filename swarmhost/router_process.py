@@ -1,4 +1,5 @@
-"""The compiled router (`fluidswarm-router`, agent/native/src/router_program.rs), with the state relay on the
+"""The compiled router (`fluidswarm-router`, agent/native/src/router_program.rs: the agent's program, which
+`fluidswarm-router` execs under its own name, agent/native/src/router_main.rs), with the state relay on the
 router's own session (agent/native/src/relay.rs): every launcher's embedded router (`RouterProcess(run, …)`),
 and a host's router of a multi-host swarm (`RouterProcess(None, …)`: `fluidswarm router`, whose relay the
 launchers of its host ask over Zenoh, swarmhost/relay.py).

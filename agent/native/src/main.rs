@@ -73,6 +73,15 @@ fn choose_runtime() {
 }
 
 fn main() {
+    // One program for agent and router (one thin-LTO link of zenoh instead of two, issue 52): started as
+    // fluidswarm-router (argv[0]; src/router_main.rs execs this program so), it is the router.
+    let argv0 = std::env::args_os().next().unwrap_or_default();
+    if std::path::Path::new(&argv0).file_name().is_some_and(|n| n == "fluidswarm-router") {
+        // its name in ps and /proc/PID/comm (tests/test_faults.py finds the router so), not the file's
+        // SAFETY: PR_SET_NAME with a NUL-terminated name of at most 16 bytes.
+        unsafe { libc::prctl(libc::PR_SET_NAME, c"fluidswarm-rout".as_ptr()) };
+        return fluidswarm_agent::router_program::main();
+    }
     fluidswarm_agent::abort_on_panic();
     choose_runtime();
     install_signals();

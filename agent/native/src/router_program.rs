@@ -1,6 +1,7 @@
 //! The compiled Zenoh router of fluidswarm, with the state relay on its own session (docs/protocol.md,
-//! docs/security.md, docs/multi-host.md); swarmhost/router_process.py starts it. Two programs are this module
-//! (src/router_main.rs, and src/router_traffic_main.rs built with the `traffic` feature).
+//! docs/security.md, docs/multi-host.md); swarmhost/router_process.py starts it. Two programs are this module:
+//! the agent's (src/main.rs) when started as fluidswarm-router (src/router_main.rs hands over to it so: one
+//! program, one thin-LTO link of zenoh), and src/router_traffic_main.rs built with the `traffic` feature.
 //!
 //! ```text
 //! fluidswarm-router RUN     a launcher's embedded router: relays the agents of RUN its launcher adds
@@ -42,8 +43,8 @@ fn fail(msg: &str) -> ! {
     std::process::exit(2)
 }
 
-/// The program: both binaries (fluidswarm-router, fluidswarm-router-traffic) are this, built without and with the
-/// `traffic` feature.
+/// The program: fluidswarm-router (the agent's program under that name) and fluidswarm-router-traffic are this,
+/// built without and with the `traffic` feature.
 pub fn main() {
     crate::abort_on_panic();
     // Ctrl-C reaches the whole process group; the launcher still needs its router to tell its agents to stop,
