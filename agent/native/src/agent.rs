@@ -44,7 +44,7 @@ const REJOIN_WINDOW: f64 = 2.0;
 /// behind has stalled and is not (it catches up from the queued states or rejoins, see `AgentCore::rejoin`).
 const LAG_WAIT_STEPS: i64 = 3;
 /// Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
-const CLOCK_LEAD: u64 = 3;
+pub const CLOCK_LEAD: u64 = 3;
 /// the least an agent waits for a neighbour in the first steps, s (see wait.rs)
 const START_BURST_TIMEOUT: f64 = 15.0;
 const START_BURST_STEPS: u32 = 4;

@@ -91,6 +91,11 @@ pub fn ctl_expr(run: &str) -> String {
     format!("{PREFIX}/{run}/ctl/*")
 }
 
+/// The exact key of ctl message `what` (`clock`, `start`, ...)
+pub fn ctl_key(run: &str, what: &str) -> String {
+    format!("{PREFIX}/{run}/ctl/{what}")
+}
+
 /// `start`, `stop`, ... for exactly `fluidswarm/<run>/ctl/<what>`, else None: a wildcard key (`fluidswarm/**`)
 /// reaches the ctl subscriber too, and only the launcher may put the exact keys (docs/security.md).
 pub fn ctl_what<'a>(run: &str, key: &'a str) -> Option<&'a str> {

@@ -305,6 +305,10 @@ impl InboxRelay {
         Self::put_all(session, &self.run, keys_of, out);
     }
 
+    fn clock(&self, session: &Session, clock: u64) {
+        self.with(session, |ib, out| ib.clock(clock, out));
+    }
+
     fn due(&self, session: &Session, now: Instant) {
         self.with(session, |ib, out| ib.due(now, out));
     }
@@ -372,6 +376,7 @@ fn relay_subscriber(
 pub struct StateRelay {
     _sub: zenoh::pubsub::Subscriber<()>,
     _watch: zenoh::pubsub::Subscriber<()>,
+    _clock: zenoh::pubsub::Subscriber<()>,
     _batcher: Batcher,
 }
 
@@ -392,8 +397,20 @@ impl StateRelay {
                 }
             })
             .wait()?;
+        // The launcher's clock ticks, to ride in the inboxes (inboxes.rs): its exact key only (only the
+        // launcher may put ctl, docs/security.md; a wildcard put names no ctl message)
+        let (ib, own, exact) = (inboxes.clone(), session.clone(), keys::ctl_key(&table.run, "clock"));
+        let clock = session
+            .declare_subscriber(exact.clone())
+            .callback(move |sample: Sample| {
+                let what = (sample.key_expr().as_str() == exact).then_some("clock");
+                if let Some(crate::ctl::Ctl::Clock(c)) = crate::ctl::decode(what, &sample.payload().to_bytes()) {
+                    ib.clock(&own, c);
+                }
+            })
+            .wait()?;
         let sub = relay_subscriber(session, table, Cells::default(), batcher.batch.clone(), Some(inboxes), expr)?;
-        Ok(StateRelay { _sub: sub, _watch: watch, _batcher: batcher })
+        Ok(StateRelay { _sub: sub, _watch: watch, _clock: clock, _batcher: batcher })
     }
 }
 

@@ -421,19 +421,27 @@ impl Shell {
         state_key_ids: bool,
         inbox: bool,
     ) -> Result<(Option<KeyExpr<'static>>, Option<KeyExpr<'static>>), String> {
-        let sh = Arc::clone(shared);
-        let ctl = self
-            .session
-            .declare_subscriber(keys::ctl_expr(&self.run))
-            .callback(move |s| {
-                let key = s.key_expr().as_str().to_string();
-                let is_clock = key.ends_with("/clock");
-                let input = Input::Ctl { key, payload: s.payload().to_bytes().into_owned() };
-                sh.deliver(|inbox| inbox.push(input, is_clock))
-            })
-            .wait()
-            .map_err(zerr)?;
-        self.fixed.push(ctl);
+        // An inbox agent's clock comes in its inbox (relay/inboxes.rs): it hears the other ctl messages on their
+        // exact keys, not ctl/* (a tick a step would wake it once more)
+        let ctl_keys = match inbox {
+            false => vec![keys::ctl_expr(&self.run)],
+            true => ["start", "stop", "end", "gone"].map(|w| keys::ctl_key(&self.run, w)).to_vec(),
+        };
+        for expr in ctl_keys {
+            let sh = Arc::clone(shared);
+            let ctl = self
+                .session
+                .declare_subscriber(expr)
+                .callback(move |s| {
+                    let key = s.key_expr().as_str().to_string();
+                    let is_clock = key.ends_with("/clock");
+                    let input = Input::Ctl { key, payload: s.payload().to_bytes().into_owned() };
+                    sh.deliver(|inbox| inbox.push(input, is_clock))
+                })
+                .wait()
+                .map_err(zerr)?;
+            self.fixed.push(ctl);
+        }
         if commands {
             let sh = Arc::clone(shared);
             let cmd = self
@@ -457,7 +465,7 @@ impl Shell {
     fn declare_inbox(&mut self, shared: &Arc<Shared>) -> Result<KeyExpr<'static>, String> {
         let sh = Arc::clone(shared);
         let exact = keys::inbox_key(&self.run, self.id);
-        let clock_key = format!("{}/{}/ctl/clock", keys::PREFIX, self.run);
+        let clock_key = keys::ctl_key(&self.run, "clock");
         let key = self.session.declare_keyexpr(exact.clone()).wait().map_err(zerr)?;
         let sub = self
             .session
@@ -466,7 +474,7 @@ impl Shell {
                 // Only the router's relay puts on our exact inbox key (docs/security.md); a put on a wildcard
                 // key reaches us too. A message that is not an inbox message (relay/inboxes.rs `parse`) goes to
                 // the core as one record, which it refuses and counts (`length`, `version` or `key`), as a bad
-                // state on a cell. A clock in it (the header has room; the relay sets none yet) is a ctl/clock.
+                // state on a cell. The launcher's clock rides in it (we hear no ctl/clock of our own).
                 let on_key = sample.key_expr().as_str() == exact;
                 let data = sample.payload().to_bytes();
                 sh.deliver(|inbox| {

@@ -12,10 +12,13 @@
 //! waits for (a late one, a republication) goes out at once with whatever is pending. An agent that stopped
 //! sending (dead, frozen) is waited for once, INBOX_WAIT, then no more: its latest step falls behind.
 //!
-//! The launcher's pacing clock (`ctl/clock`, ~one tick per step) still reaches each agent on its own and wakes
-//! it once more; the header has room for it to ride along (tried, not landed: branch issue-49-clock-riding).
+//! The launcher's pacing clock (`ctl/clock`, ~one tick per step) rides in the same messages instead of waking
+//! every agent once more: each message carries the latest clock. An agent whose latest state says it may now be
+//! held by the clock it was last given (0 if none: ctl/start paces an agent from clock 0; its next step more than agent::CLOCK_LEAD ahead of it: it waits for a
+//! tick, and its neighbours, held too, send nothing) gets the newer clock at once, alone; so does every agent
+//! still behind at the launcher's once-a-second repetition of the clock (a safety net: a second at worst).
 //!
-//! An inbox message (v1, little-endian): u8 version = 1, u8 kind = 3, u16 flags (bit 0: the clock is set; never yet),
+//! An inbox message (v1, little-endian): u8 version = 1, u8 kind = 3, u16 flags (bit 0: the clock is set),
 //! u32 reserved (0), u64 clock, then whole 104-byte state records (at most MAX_RECORDS).
 
 use std::collections::HashMap;
@@ -75,6 +78,9 @@ struct Watcher {
     got: usize,
     /// how many agents the last look found the group waiting for
     need: usize,
+    /// the clock it has: the last one its messages carried, else 0 (ctl/start paces an agent from clock 0,
+    /// agent/receive.rs)
+    clock_sent: u64,
 }
 
 /// The relay's inboxes of one run.
@@ -87,6 +93,8 @@ pub struct Inboxes {
     members: HashMap<Cell, Vec<u32>>,
     /// agent -> (cell, step) of its latest state
     latest: HashMap<u32, (Cell, u32)>,
+    /// the launcher's latest clock tick
+    clock: Option<u64>,
 }
 
 /// Messages to put: (the agent whose inbox, the concatenated records).
@@ -143,6 +151,9 @@ impl Inboxes {
         for j in to {
             self.give(j, from, step, record, now, out);
         }
+        if self.held(from) {
+            self.send_clock(from, out);
+        }
         // It left the cells of those who watch its old cell and not its new one: they no longer wait for it
         if let Some(c) = left {
             let was: Vec<u32> = self.watching.get(&c).cloned().unwrap_or_default();
@@ -152,6 +163,38 @@ impl Inboxes {
                 }
             }
         }
+    }
+
+    /// A tick of the launcher's clock: it goes with every message from now on, and alone to each agent it may
+    /// hold (or, at a repetition of the same tick, to each agent still behind it).
+    pub fn clock(&mut self, clock: u64, out: &mut Out) {
+        let again = self.clock == Some(clock);
+        if self.clock.is_some_and(|c| clock < c) {
+            return; // the clock only moves on
+        }
+        self.clock = Some(clock);
+        let ids: Vec<u32> = self.watchers.keys().copied().collect();
+        for j in ids {
+            let behind = self.watchers[&j].clock_sent < clock;
+            if (again && behind) || self.held(j) {
+                self.send_clock(j, out);
+            }
+        }
+    }
+
+    /// Whether agent `j` may be waiting for a newer clock than the one it was given: its next step is more than
+    /// CLOCK_LEAD ahead of it (agent/step.rs `paced`), and a newer one is here.
+    fn held(&self, j: u32) -> bool {
+        let (Some(w), Some(clock)) = (self.watchers.get(&j), self.clock) else { return false };
+        let given = w.clock_sent;
+        given < clock
+            && self.latest.get(&j).is_some_and(|&(_, step)| u64::from(step) + 1 > given + crate::agent::CLOCK_LEAD)
+    }
+
+    fn send_clock(&mut self, j: u32, out: &mut Out) {
+        let w = self.watchers.get_mut(&j).expect("a watcher");
+        w.clock_sent = self.clock.unwrap_or(0);
+        out.push((j, header(self.clock).to_vec()));
     }
 
     /// The groups that waited INBOX_WAIT go out as they are; they then wait for the step after.
@@ -164,7 +207,7 @@ impl Inboxes {
             .collect();
         for j in late {
             let w = self.watchers.get_mut(&j).expect("listed");
-            flush(j, w, out);
+            flush(j, w, self.clock, out);
             if let Some(n) = w.next {
                 self.advance(j, n + 1, now, out);
             }
@@ -182,7 +225,7 @@ impl Inboxes {
         }
         let next = *w.next.get_or_insert(step);
         if step < next || w.count >= MAX_RECORDS {
-            flush(j, w, out); // late (or a republication): the agent waits for it now
+            flush(j, w, self.clock, out); // late (or a republication): the agent waits for it now
             return;
         }
         if before.is_none_or(|b| b < next) {
@@ -204,7 +247,7 @@ impl Inboxes {
             if !complete {
                 return;
             }
-            flush(j, w, out);
+            flush(j, w, self.clock, out);
             if need == 0 {
                 // nobody to wait for: the next state sets the step again
                 w.next = None;
@@ -243,12 +286,15 @@ impl Inboxes {
     }
 }
 
-fn flush(j: u32, w: &mut Watcher, out: &mut Out) {
+fn flush(j: u32, w: &mut Watcher, clock: Option<u64>, out: &mut Out) {
     w.since = None;
     if w.count > 0 {
         w.count = 0;
+        if let Some(c) = clock {
+            w.clock_sent = c;
+        }
         let mut message = Vec::with_capacity(HEADER + w.buf.len());
-        message.extend_from_slice(&header(None));
+        message.extend_from_slice(&header(clock));
         message.append(&mut w.buf);
         out.push((j, message));
     }
@@ -357,6 +403,60 @@ mod tests {
         out.clear();
         ib.state(0, 100_001, (0, 0), &rec(0, 100_001), t, &mut out); // waits for 2's step 100001 now
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_clock_rides_along_and_goes_alone_to_whom_it_holds() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        out.clear();
+        ib.clock(0, &mut out); // nobody was given a clock: nobody is held by one
+        assert!(out.is_empty());
+        ib.state(2, 1, (2, 0), &rec(2, 1), t, &mut out);
+        ib.state(0, 1, (0, 0), &rec(0, 1), t, &mut out); // 1's group goes out, with the clock
+        ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out); // and 0's
+        assert_eq!(out.iter().map(|(_, m)| parse(m).unwrap().0).collect::<Vec<_>>(), [Some(0), Some(0)]);
+        for s in 2..=3 {
+            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
+                ib.state(k, s, c, &rec(k, s), t, &mut out);
+            }
+        }
+        out.clear();
+        // both were given clock 0 with their step-3 groups: their step 4 is held (4 > 0 + 3): clock 1 alone
+        ib.clock(1, &mut out);
+        assert_eq!(out.iter().map(|(j, m)| (*j, parse(m).unwrap())).collect::<Vec<_>>().len(), 2);
+        assert!(out.iter().all(|(_, m)| parse(m) == Some((Some(1), &[][..]))));
+        out.clear();
+        ib.state(0, 4, (0, 0), &rec(0, 4), t, &mut out); // 0 at 4: held by 1 (5 > 4), but 1 is all there is
+        assert!(out.is_empty());
+        ib.clock(2, &mut out); // now 0 gets 2 at once; 1 (at 3: 4 > 1 + 3 is false) is not held
+        assert_eq!(out.len(), 1);
+        assert_eq!((out[0].0, parse(&out[0].1)), (0, Some((Some(2), &[][..]))));
+        out.clear();
+        ib.clock(1, &mut out); // an old tick: nothing
+        assert!(out.is_empty());
+        ib.clock(2, &mut out); // the once-a-second repetition: 1, given 1 < 2, gets it (the safety net)
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].0, 1);
+    }
+
+    #[test]
+    fn a_first_clock_after_the_lead_reaches_every_agent_it_holds() {
+        // The launcher ticks once it has seen states: its first tick can come when every group of step 3 went
+        // out without a clock. ctl/start paced the agents from clock 0, so at step 4 each is held by 0.
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        for s in 1..=3 {
+            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
+                ib.state(k, s, c, &rec(k, s), t, &mut out);
+            }
+        }
+        out.clear();
+        ib.clock(3, &mut out);
+        assert!(out.iter().all(|(_, m)| parse(m) == Some((Some(3), &[][..]))));
+        let mut to: Vec<u32> = out.iter().map(|(j, _)| *j).collect();
+        to.sort();
+        assert_eq!(to, [0, 1]); // the watchers (2 watches nobody: `three`)
     }
 
     #[test]
