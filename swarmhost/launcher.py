@@ -143,6 +143,8 @@ class Launcher:
         # message (agent/native/src/relay/inboxes.rs); a host's router (multi-host) relays on the cells only.
         # FLUIDSWARM_INBOX=0 keeps the cell subscriptions (the side-by-side measurements, an older agent).
         self.inboxes = isinstance(self.relay, CompiledRelay) and os.environ.get("FLUIDSWARM_INBOX", "1") != "0"
+        # Its batches carry every state of the run: the pacer follows those, not each agent's messages
+        self.pacer.batches = isinstance(self.relay, CompiledRelay)
         self.recorder = RecorderProcess(
             self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet, self.access.state_key_ids
         )

@@ -50,6 +50,10 @@ class Pacer:
     def __init__(self, swarm, agent_timeout: float, id_keys: bool, clock_period: float = CLOCK_PERIOD):
         self.swarm, self.agent_timeout, self.clock_period = swarm, agent_timeout, clock_period
         self.id_keys = id_keys  # states on the agents' id keys (per-process rights), else on cell keys
+        # Follow the embedded router's relay's batches (docs/protocol.md "State batches": one message per
+        # lockstep step or BATCH_WAIT) instead of every agent's state message: set by the launcher when its own
+        # router relays every state of the run (issue 49: each process woken about once per step, not N times)
+        self.batches = False
         self.session, self.run = swarm.session, swarm.run
         self.core = PaceCore(self.run, agent_timeout)
         self._states: list[zenoh.Subscriber] | None = None  # the state subscribers, then the share clocks'
@@ -104,7 +108,11 @@ class Pacer:
         # drained in batches by the clock thread: no Python callback, no GIL, per state message on the
         # router's receiving threads (N messages per step).
         sh = self.share
-        if sh is None:
+        if sh is None and self.batches:
+            self._states = states = [
+                self.session.declare_subscriber(keys.batch_expr(self.run), zenoh.handlers.RingChannel(1 << 12))
+            ]
+        elif sh is None:
             self._states = states = [
                 self.session.declare_subscriber(
                     keys.state_observed_expr(self.run, self.id_keys), zenoh.handlers.RingChannel(1 << 16)
