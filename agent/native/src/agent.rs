@@ -45,6 +45,13 @@ const REJOIN_WINDOW: f64 = 2.0;
 const LAG_WAIT_STEPS: i64 = 3;
 /// Pacing: never more than this many steps ahead of the launcher's clock (the slowest live agent).
 pub const CLOCK_LEAD: u64 = 3;
+
+/// Whether an agent about to run `step` waits for a newer clock than `clock`: it is more than CLOCK_LEAD steps
+/// ahead of it. One rule for the agent (step.rs) and for the relay that must know whom a tick releases
+/// (relay/inboxes.rs `held`).
+pub fn paced(step: u64, clock: u64) -> bool {
+    step > clock + CLOCK_LEAD
+}
 /// the least an agent waits for a neighbour in the first steps, s (see wait.rs)
 const START_BURST_TIMEOUT: f64 = 15.0;
 const START_BURST_STEPS: u32 = 4;

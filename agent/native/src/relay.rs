@@ -393,7 +393,7 @@ impl StateRelay {
             .declare_subscriber(format!("{}/{}/watch/*", keys::PREFIX, table.run))
             .callback(move |sample: Sample| {
                 if let Some((id, cells)) = t.watched(sample.key_expr().as_str(), &sample.payload().to_bytes()) {
-                    ib.with(&own, |inboxes, out| inboxes.watch(id, cells, Instant::now(), out));
+                    ib.with(&own, |inboxes, out| inboxes.watch(id, cells, out));
                 }
             })
             .wait()?;

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use super::{Action, AgentCore, Lock, Phase, Wake, CLOCK_LEAD, SLICE};
+use super::{Action, AgentCore, Lock, Phase, Wake, SLICE};
 use crate::event::EventKind;
 use crate::final_report::Status;
 use crate::keys;
@@ -70,7 +70,7 @@ impl AgentCore {
     }
 
     fn paced(&self) -> bool {
-        self.clock.is_some_and(|c| self.step as u64 > c + CLOCK_LEAD)
+        self.clock.is_some_and(|c| super::paced(u64::from(self.step), c))
     }
 
     pub(super) fn lockstep(&mut self, now: f64, lock: Lock) -> Option<Phase> {

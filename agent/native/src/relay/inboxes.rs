@@ -112,7 +112,7 @@ impl Inboxes {
     }
 
     /// Agent `id` now watches `cells` (its whole set, watch.rs).
-    pub fn watch(&mut self, id: u32, cells: Vec<Cell>, now: Instant, out: &mut Out) {
+    pub fn watch(&mut self, id: u32, cells: Vec<Cell>, out: &mut Out) {
         let w = self.watchers.entry(id).or_default();
         for c in &w.cells {
             if let Some(list) = self.watching.get_mut(c) {
@@ -123,7 +123,7 @@ impl Inboxes {
             self.watching.entry(c).or_default().push(id);
         }
         w.cells = cells;
-        self.look(id, now, out);
+        self.look(id, out);
     }
 
     /// A state the relay passed on: agent `from`'s step-`step` record, in `cell`.
@@ -159,7 +159,7 @@ impl Inboxes {
             let was: Vec<u32> = self.watching.get(&c).cloned().unwrap_or_default();
             for j in was {
                 if j != from && !self.watchers.get(&j).is_some_and(|w| w.cells.contains(&cell)) {
-                    self.look(j, now, out);
+                    self.look(j, out);
                 }
             }
         }
@@ -183,12 +183,11 @@ impl Inboxes {
     }
 
     /// Whether agent `j` may be waiting for a newer clock than the one it was given: its next step is more than
-    /// CLOCK_LEAD ahead of it (agent/step.rs `paced`), and a newer one is here.
+    /// CLOCK_LEAD ahead of it (`agent::paced`, the agent's own rule), and a newer one is here.
     fn held(&self, j: u32) -> bool {
         let (Some(w), Some(clock)) = (self.watchers.get(&j), self.clock) else { return false };
         let given = w.clock_sent;
-        given < clock
-            && self.latest.get(&j).is_some_and(|&(_, step)| u64::from(step) + 1 > given + crate::agent::CLOCK_LEAD)
+        given < clock && self.latest.get(&j).is_some_and(|&(_, step)| crate::agent::paced(u64::from(step) + 1, given))
     }
 
     fn send_clock(&mut self, j: u32, out: &mut Out) {
@@ -209,7 +208,7 @@ impl Inboxes {
             let w = self.watchers.get_mut(&j).expect("listed");
             flush(j, w, self.clock, out);
             if let Some(n) = w.next {
-                self.advance(j, n + 1, now, out);
+                self.advance(j, n + 1, out);
             }
         }
     }
@@ -232,13 +231,13 @@ impl Inboxes {
             w.got += 1;
         }
         if w.got >= w.need {
-            self.look(j, now, out);
+            self.look(j, out);
         }
     }
 
     /// Whether agent `j`'s group has every state it waits for: then out it goes, and the next step's (a
     /// neighbour ran ahead, or `j` was frozen: a loop, not a call per step, however far behind it is).
-    fn look(&mut self, j: u32, _now: Instant, out: &mut Out) {
+    fn look(&mut self, j: u32, out: &mut Out) {
         loop {
             let Some(next) = self.watchers.get(&j).and_then(|w| w.next) else { return };
             let (complete, need) = self.complete(j, next);
@@ -260,12 +259,12 @@ impl Inboxes {
     }
 
     /// Agent `j`'s group now waits for step `next`; it may be complete already (a neighbour ran ahead).
-    fn advance(&mut self, j: u32, next: u32, now: Instant, out: &mut Out) {
+    fn advance(&mut self, j: u32, next: u32, out: &mut Out) {
         let w = self.watchers.get_mut(&j).expect("a watcher");
         w.next = Some(next);
         w.got = w.given.values().filter(|&&s| s >= next).count();
         // who is waited for changes with the step (an agent left behind no longer is): looked at anew
-        self.look(j, now, out);
+        self.look(j, out);
     }
 
     /// (whether every agent `j` waits for at step `next` was given it, how many it waits for)
@@ -320,16 +319,25 @@ mod tests {
             .collect()
     }
 
+    const CELLS: [(u32, Cell); 3] = [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))];
+
     /// Agents 0, 1, 2 in cells (0,0), (1,0), (2,0); 0 watches (0,0) and (1,0), 1 all three.
     fn three(t: Instant) -> (Inboxes, Out) {
         let mut ib = Inboxes::default();
         let mut out = Out::new();
-        ib.watch(0, vec![(0, 0), (1, 0)], t, &mut out);
-        ib.watch(1, vec![(0, 0), (1, 0), (2, 0)], t, &mut out);
-        for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
-            ib.state(k, 0, c, &rec(k, 0), t, &mut out);
-        }
+        ib.watch(0, vec![(0, 0), (1, 0)], &mut out);
+        ib.watch(1, vec![(0, 0), (1, 0), (2, 0)], &mut out);
+        step_all(&mut ib, 0..=0, t, &mut out);
         (ib, out)
+    }
+
+    /// Each of the three, in its own cell, publishes every step of `steps`.
+    fn step_all(ib: &mut Inboxes, steps: std::ops::RangeInclusive<u32>, t: Instant, out: &mut Out) {
+        for s in steps {
+            for (k, c) in CELLS {
+                ib.state(k, s, c, &rec(k, s), t, out);
+            }
+        }
     }
 
     #[test]
@@ -352,11 +360,7 @@ mod tests {
     fn a_late_state_goes_at_once_and_a_silent_agent_is_waited_for_once() {
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
-        for s in 1..=2 {
-            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
-                ib.state(k, s, c, &rec(k, s), t, &mut out);
-            }
-        }
+        step_all(&mut ib, 1..=2, t, &mut out);
         out.clear();
         // 2 falls silent at step 2: agent 1's step-3 group waits INBOX_WAIT, then goes out without it
         ib.state(0, 3, (0, 0), &rec(0, 3), t, &mut out);
@@ -416,11 +420,7 @@ mod tests {
         ib.state(0, 1, (0, 0), &rec(0, 1), t, &mut out); // 1's group goes out, with the clock
         ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out); // and 0's
         assert_eq!(out.iter().map(|(_, m)| parse(m).unwrap().0).collect::<Vec<_>>(), [Some(0), Some(0)]);
-        for s in 2..=3 {
-            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
-                ib.state(k, s, c, &rec(k, s), t, &mut out);
-            }
-        }
+        step_all(&mut ib, 2..=3, t, &mut out);
         out.clear();
         // both were given clock 0 with their step-3 groups: their step 4 is held (4 > 0 + 3): clock 1 alone
         ib.clock(1, &mut out);
@@ -446,11 +446,7 @@ mod tests {
         // out without a clock. ctl/start paced the agents from clock 0, so at step 4 each is held by 0.
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
-        for s in 1..=3 {
-            for (k, c) in [(0, (0, 0)), (1, (1, 0)), (2, (2, 0))] {
-                ib.state(k, s, c, &rec(k, s), t, &mut out);
-            }
-        }
+        step_all(&mut ib, 1..=3, t, &mut out);
         out.clear();
         ib.clock(3, &mut out);
         assert!(out.iter().all(|(_, m)| parse(m) == Some((Some(3), &[][..]))));
@@ -482,7 +478,7 @@ mod tests {
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
         out.clear();
-        ib.watch(0, vec![(0, 0)], t, &mut out); // 0 no longer hears 1
+        ib.watch(0, vec![(0, 0)], &mut out); // 0 no longer hears 1
         ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out);
         assert!(ids(&out, 0).is_empty());
         assert!(!ib.is_watching(2) && ib.is_watching(0));
