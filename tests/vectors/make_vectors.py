@@ -14,6 +14,8 @@ and agent/native/tests/all/vectors.rs the Rust ones, so both implementations mak
                             agent.protocol.command.edges_cross
     ctl.json                agent.protocol.ctl.decode_ctl: the launcher's ctl/<what> payloads, decoded or dropped
     events.json             agent.protocol.events.decode_event: agent events, decoded or dropped
+    imitation.json          agent.protocol.imitation.decode_plan/decode_note: an imitation's plan and its
+                            coordinator's notes, decoded or dropped
     radio.json              agent.sph.radio: the counter-based draws of the imperfect radio (loss, position error;
                             agent/native/tests/all/radio_vectors.rs checks radio.rs)
     sph_steps.json          agent.sph.particle.step_particle (numpy, the physics oracle): one particle's step,
@@ -40,6 +42,7 @@ from make.common import SECRET
 from make.ctl import ctl_vectors
 from make.events import event_vectors
 from make.fill import fill_vectors
+from make.imitation import imitation_vectors
 from make.radio import radio_vectors
 from make.route import route_vectors
 from make.sph_steps import sph_step_vectors
@@ -51,6 +54,7 @@ __all__ = [
     "event_vectors",
     "fill_vectors",
     "follower_sequences",
+    "imitation_vectors",
     "radio_vectors",
     "route_vectors",
     "sph_step_vectors",
@@ -70,6 +74,7 @@ def main() -> None:
     write("sph_steps.json", sph_step_vectors())
     write("radio.json", radio_vectors())
     write("events.json", event_vectors())
+    write("imitation.json", imitation_vectors())
 
 
 def write(name: str, obj) -> None:

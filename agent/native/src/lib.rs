@@ -1,8 +1,8 @@
 //! The fluidswarm agent as a compiled program: one SPH particle per OS process, its neighbours over Zenoh.
-//! sph, robot and obstacle check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command, fill,
-//! route, ctl, event, final_report and spec are the one implementation of those records, which the Python side
-//! wraps (agent/protocol/wire.py, keys.py, command.py, ctl.py, events.py, report.py, spec.py, agent/fill.py,
-//! coordinator/control/route.py through the extension module agent/native/python).
+//! sph, robot and obstacle check against the numpy oracle (agent/sph, through tests/vectors); wire, keys, command,
+//! fill, route, ctl, event, final_report, imitation and spec are the one implementation of those records, which the
+//! Python side wraps (agent/protocol/wire.py, keys.py, command.py, ctl.py, events.py, imitation.py, report.py,
+//! spec.py, agent/fill.py, coordinator/control/route.py through the extension module agent/native/python).
 
 pub mod agent;
 pub mod command;
@@ -10,6 +10,7 @@ pub mod ctl;
 pub mod event;
 pub mod fill;
 pub mod final_report;
+pub mod imitation;
 pub mod keys;
 pub mod obstacle;
 pub mod radio;

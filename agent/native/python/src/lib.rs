@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 mod command;
 mod ctl;
 mod events;
+mod imitation;
 mod json;
 mod keys;
 mod report;
@@ -20,6 +21,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     command::register(m)?;
     ctl::register(m)?;
     events::register(m)?;
+    imitation::register(m)?;
     keys::register(m)?;
     report::register(m)?;
     route::register(m)?;

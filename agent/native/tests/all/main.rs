@@ -5,6 +5,7 @@
 
 mod agent_core;
 mod common;
+mod imitation_vectors;
 mod radio_vectors;
 mod records;
 mod sph_vectors;
