@@ -35,6 +35,7 @@ MAX_HANDS = 2
 REFINE_POINTS = (0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18)
 REFINE_SCALE = 2.0
 REFINE_SHIFT = -0.1
+REREAD_SCALES = (0.85, 1.2)  # of the tracking box's side: the rereadings' crops (REFINE_SCALE 2.0 -> 1.7, 2.4)
 BOTTOM_SIDE = 0.75  # of the picture's height: the bottom corners' squares (palm_views)
 
 FINGERS = ((1, 2, 3, 4), (5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
@@ -171,13 +172,20 @@ def _crop_matrix(box: tuple[float, float, float, float], size: int) -> np.ndarra
     )
 
 
-def landmarks_in(image_bgr: np.ndarray, box: tuple[float, float, float, float]) -> HandLandmarks:
-    """The landmark model on the rotated square `box` of the picture."""
+def landmarks_in(
+    image_bgr: np.ndarray, box: tuple[float, float, float, float], mirrored: bool = False
+) -> HandLandmarks:
+    """The landmark model on the rotated square `box` of the picture (`mirrored`: on its mirror image, the
+    landmarks mirrored back: the model reads a left and a right hand, so this is a second, different look)."""
     m = _crop_matrix(box, LANDMARK_SIZE)
     rgb = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2RGB)
     crop = cv2.warpAffine(rgb, m, (LANDMARK_SIZE, LANDMARK_SIZE), flags=cv2.INTER_LINEAR, borderValue=(0, 0, 0))
+    if mirrored:
+        crop = np.ascontiguousarray(crop[:, ::-1])
     pts, flag = run_model(LANDMARK_MODEL, crop, ("Identity", "Identity_1"))
     xyz = pts.reshape(21, 3).astype(np.float32)
+    if mirrored:
+        xyz[:, 0] = LANDMARK_SIZE - xyz[:, 0]
     inv = cv2.invertAffineTransform(m)
     xy = xyz[:, :2] @ inv[:, :2].T + inv[:, 2]
     presence = float(np.asarray(flag).ravel()[0])
@@ -204,6 +212,19 @@ def landmark_box(points: np.ndarray) -> tuple[float, float, float, float]:
     cx += -h * REFINE_SHIFT * np.sin(rotation)
     cy += h * REFINE_SHIFT * np.cos(rotation)
     return float(cx), float(cy), max(w, h) * REFINE_SCALE, rotation
+
+
+def rereadings(image_bgr: np.ndarray, points: np.ndarray) -> list[HandLandmarks]:
+    """The same hand read again in other crops round its landmarks `points` (test-time augmentation): the
+    tracking box (`landmark_box`) mirrored, and that box REREAD_SCALES times its size. A hand's landmarks
+    barely move between them; landmarks the model fitted to a wall's pattern or to a half-seen hand move
+    (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts only if every
+    rereading gives it). Three landmark passes (~4 ms each)."""
+    cx, cy, side, rotation = landmark_box(points)
+    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), mirrored=True)]
+    for scale in REREAD_SCALES:
+        out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation)))
+    return out
 
 
 def find_landmarks(image_bgr: np.ndarray, min_presence: float = PRESENCE) -> list[HandLandmarks]:

@@ -95,11 +95,45 @@ def test_hands_in_front_of_clutter_are_found_with_their_silhouettes_and_classes(
             ious.append(iou(hand.mask, truth))
             right += hand.label == str(cls)
     print(f"found {found} of 12, named right {right}, mask IoU {np.mean(ious):.3f}")
-    # measured: 5 found (the others refused: no hand seen, or the landmarks and the silhouette name
-    # different classes), 5 right, IoU 0.92; issue 50 wants 90 % found, bench-perception says 73 %
+    # measured: 6 found (a 5 on stripes by its steady landmarks; the others refused: no hand seen, or the
+    # landmarks and the silhouette name different classes), 6 right, IoU 0.84; issue 50 wants 90 % found
     assert found >= 4, found
     assert np.mean(ious) >= 0.8, ious  # issue 50: mask IoU >= 0.80
     assert right >= found - 1, (right, found)
+
+
+def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_hands, clf, monkeypatch):
+    """Where the silhouette's classifier and the landmarks' name different classes, the landmarks' class is
+    the hand's when every rereading in another crop (mirrored, smaller, larger box) gives it with all votes
+    and its landmarks barely move: a held-out 4 and a 5 on noise are found and named right, and refused
+    without the rereadings. A held-out 1 on a skin wall whose landmarks say 2 is still refused (its
+    rereadings say otherwise), and so is a held-out 2 on noise whose rereadings all say 2 but whose
+    landmarks move (fitted to a smaller hand than the one shown: its silhouette's IoU is 0.40)."""
+    import perception.hand_detector as hd
+
+    steady = hd.steady_pose
+    for cls, family, seed in ((4, "noise", 41), (5, "noise", 40)):
+        frame, truth = composite(held_out(shared_hands, cls), family, seed)
+        hand = find_hand(frame, clf)
+        assert hand.label == str(cls)
+        assert iou(hand.mask, truth) >= 0.7  # measured 0.74 and 0.79: the silhouette GrabCut cut, as before
+        monkeypatch.setattr(hd, "steady_pose", lambda *a: False)
+        with pytest.raises(NoHandError, match=f"two readings differ \\(silhouette: [^{cls}], landmarks: {cls}\\)"):
+            find_hand(frame, clf)
+        monkeypatch.setattr(hd, "steady_pose", steady)
+    poses = hd.poses_for(clf)
+    frame, _ = composite(held_out(shared_hands, 1), "skin", 1)
+    with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 1, landmarks: 2\\)"):
+        find_hand(frame, clf)
+    frame, _ = composite(held_out(shared_hands, 2), "noise", 2)
+    with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 6, landmarks: 2\\)"):
+        find_hand(frame, clf)
+    lm = find_landmarks(frame)[0]
+    again = hd.rereadings(frame, lm.points)
+    assert [poses.predict(a.points) for a in again] == [("2", 1.0)] * 3
+    moved = np.mean([np.linalg.norm(a.points - lm.points, axis=1).mean() for a in again]) / lm.palm_length()
+    assert moved > hd.STEADY_MOVE, moved
+    assert not steady(frame, lm, poses, "2")
 
 
 DRIFTS = (  # gain, gamma, white balance (B, G, R gains)
