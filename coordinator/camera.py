@@ -13,22 +13,19 @@ changed and held for `label_hold` observations, or the silhouette changed beyond
 the last commanded one, or the tracked box moving or resizing, no sooner than `min_seconds` after the last
 command) -- not every frame.
 
-The first command's imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up
-and the command) is handed to the launcher (`hand_over`, coordinator/handover.py), which places the swarm
-from it; every command's observation is written to `latest.npz` in the folder the launcher gives
-(`--observations DIR`), which it reads once the run has ended to score the formation, and to
-`command-<seq>.npz` (the recorder's targets: fluidswarm/recording/coordinator_events.py); what happened goes
-to `events.jsonl` there, one JSON object a line with its time.monotonic() `t`: the subject
-chosen, each command (seq, gesture, why), each time the subject was not found (what, said once until it
-was found again or the reason changed) and the end of a video file. A video file ends normally at its
-last frame; a device or URL that ends or stalls is a StreamError.
+The first observation fixes the image -> domain map (coordinator/control/imitation_setup.py `transform_for`)
+and each command is built in it (`build_command`). What happened goes out as notes on the run's bus (`say`:
+agent/protocol/imitation.py, put on `fluidswarm/<run>/imitation/note`): the subject chosen, the first
+command's observation (its silhouette, parts and picture: the launcher places the swarm from it,
+fluidswarm/imitate_camera.py), each command (seq, gesture, why, its silhouette: the recorder's targets,
+fluidswarm/recording/coordinator_events.py, and the launcher's score), each time the subject was not found
+(what, said once until it was found again or the reason changed) and the end of a video file. A video file
+ends normally at its last frame; a device or URL that ends or stalls is a StreamError.
 """
 
 from __future__ import annotations
 
 import itertools
-import json
-import os
 import re
 import threading
 import time
@@ -37,12 +34,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
+from agent.protocol.imitation import Commanded, End, Missing, Note, Seen, Subject
 from coordinator.control.fill import ShapeError
-from coordinator.control.imitation_setup import Imitation, build_command, imitation_for
+from coordinator.control.imitation_setup import build_command, controller_of, transform_for
 from coordinator.control.observe import Observation, body_observation, observe
-from fluidswarm.recording.coordinator_events import EVENTS_FILE, command_file
 from perception.segmentation import MAX_MOVING_AWAY, SegmentationError, moving_away
 from perception.stream import FrameStream, StreamEnded, StreamError
 from perception.tracking import BoxKalman, box_to_centre
@@ -165,24 +163,23 @@ def choose_subject(frames: list[np.ndarray], hands: HandObserver) -> str:
 
 
 class EventLog:
-    """events.jsonl in the observations folder (or nowhere); 'missing' said once per reason."""
+    """The coordinator's notes, each handed to `say` (its put on the bus; None: nowhere); 'missing' said once
+    per reason."""
 
-    def __init__(self, folder: Path | None):
-        self.path = None if folder is None else folder / EVENTS_FILE
+    def __init__(self, say: Callable[[Note], None] | None):
+        self.say = say
         self._said: str | None = None
         self.last: str | None = None  # the last reason the subject was not found (None once it was found)
 
-    def write(self, event: str, **fields) -> None:
-        if self.path is None:
-            return
-        with open(self.path, "a") as f:
-            f.write(json.dumps({"t": time.monotonic(), "event": event, **fields}) + "\n")
+    def write(self, note: Note) -> None:
+        if self.say is not None:
+            self.say(note)
 
     def missing(self, what: str | None) -> None:
         kind = None if what is None else re.sub(r"[0-9.]+", "#", what)  # the reason, not its figures
         self.last = what
-        if kind is not None and kind != self._said:
-            self.write("missing", what=what)
+        if what is not None and kind != self._said:
+            self.write(Missing(what))
         self._said = kind
 
 
@@ -238,19 +235,15 @@ class CommandSwitch:
         self.box = self.kalman.x[:4].copy()
 
 
-def save_observation(path: Path, obs: Observation) -> None:
-    """Written whole or not at all (replaced at every command while the run goes on)."""
-    tmp = path.with_suffix(".tmp.npz")
+def seen_note(obs: Observation, seq: int) -> Seen:
+    """Command `seq`'s observation as the note the launcher places the swarm from: the parts it plans with,
+    the picture as the JPEG the recorder is given (what cv2.imwrite would write)."""
+    assert obs.frame is not None  # a camera's observation carries its picture
+    ok, jpeg = cv2.imencode(".jpg", obs.frame)
+    if not ok:
+        raise ValueError("the frame could not be encoded as JPEG")
     parts = {k: obs.parts[k] for k in PARTS if k in obs.parts}
-    assert obs.frame is not None  # a camera's observation carries its picture (load_observation reads it)
-    np.savez(tmp, mask=obs.mask, frame=obs.frame, label=obs.label, kind=obs.kind, **parts)
-    os.replace(tmp, path)
-
-
-def load_observation(path: Path) -> Observation:
-    with np.load(path) as z:
-        parts = {k: z[k].astype(bool) for k in PARTS if k in z.files}
-        return Observation(str(z["kind"]), z["mask"].astype(bool), str(z["label"]), z["frame"], parts)
+    return Seen(seq, obs.kind, obs.label, obs.index, obs.mask, parts, jpeg.tobytes())
 
 
 def open_stream(source: str, params, ros2_router: str = ""):
@@ -278,22 +271,20 @@ def run_camera(
     pub,
     stop: threading.Event,
     period: float,
-    observations: Path | None,
+    say: Callable[[Note], None] | None,
     rule: ChangeRule = ChangeRule(),
     subject: str = "person",
     started: threading.Event | None = None,
-    hand_over: Callable[[Imitation], None] | None = None,
     ros2_router: str = "",
 ) -> None:
     """Observe `source` until `stop` or the end of a video file, publishing signed commands on `pub`
-    (republished every `period` s by a side thread, so late joiners get one while a frame is being read).
-    The first command's imitation goes to `hand_over` (its HandoverFailed is raised: the launcher is gone).
-    A video file is held after its first command until `started` (the swarm runs), so that what it shows
-    is seen by the swarm as it was recorded, however long the swarm took to start (at most
-    HOLD_SECONDS). Raises StreamError (a file that ends before anything was commanded, too)."""
+    (republished every `period` s by a side thread, so late joiners get one while a frame is being read)
+    and handing its notes to `say` (EventLog). A video file is held after its first command until `started`
+    (the swarm runs), so that what it shows is seen by the swarm as it was recorded, however long the swarm
+    took to start (at most HOLD_SECONDS). Raises StreamError (a file that ends before anything was commanded, too)."""
     if subject not in SUBJECTS:
         raise ValueError(f"subject must be one of {', '.join(SUBJECTS)}, got {subject!r}")
-    log = EventLog(observations)
+    log = EventLog(say)
     try:
         _observe_stream(
             source,
@@ -304,18 +295,16 @@ def run_camera(
             pub,
             stop,
             period,
-            observations,
             rule,
             subject,
             log,
             started,
-            hand_over,
             ros2_router,
         )
     except StreamEnded as exc:
         if not getattr(exc, "is_file", False):
             raise
-        log.write("end", frames=exc.frames)
+        log.write(End(exc.frames))
         if not exc.commanded:  # say why: the last reason logged ("no hand found: ...")
             raise StreamError(
                 f"camera {source}: the video ended after {exc.frames} frames without a "
@@ -332,12 +321,10 @@ def _observe_stream(
     pub,
     stop,
     period,
-    observations,
     rule,
     subject,
     log,
     started,
-    hand_over,
     ros2_router="",
 ) -> None:
     current: list[bytes] = []
@@ -373,10 +360,10 @@ def _observe_stream(
                     break
             subject = choose_subject(first, hands)
             observer = hands if subject == "hand" else LiveObserver(rule.window)
-            log.write("subject", subject=subject, how="auto", frames=len(first))
+            log.write(Subject(subject, "auto", len(first)))
         else:
             observer = HandObserver() if subject == "hand" else LiveObserver(rule.window)
-            log.write("subject", subject=subject, how="given")
+            log.write(Subject(subject, "given"))
         for frame in itertools.chain(first, source_frames):
             obs = observer.observe(frame)
             log.missing(observer.missing)
@@ -386,30 +373,23 @@ def _observe_stream(
             why = switch.update(obs, now)
             if why is None:
                 continue
-            first_im = None
-            try:  # the first observation fixes the image -> domain map and the swarm's start
-                if transform is None:
-                    first_im = imitation_for([obs], n_agents, controller)
-                    cmd = first_im.command
-                else:
-                    cmd = build_command(obs, transform, n_agents, controller, seq=seq + 1)
+            try:  # the first observation fixes the image -> domain map (the launcher places the swarm from it)
+                shown = transform or transform_for(obs.mask, n_agents, controller_of(controller))
+                cmd = build_command(obs, shown, n_agents, controller, seq=seq + 1)
+                seen = seen_note(obs, seq + 1) if transform is None else None
             except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take (too small, too thin): wait
                 log.missing(f"no shape the swarm can take: {exc}")
                 continue
-            if first_im is not None:
-                transform = first_im.transform
+            transform = shown
             seq += 1
             switch.commit(obs, now)
             payload = cmd.encode(secret)
             current.append(payload)
             del current[:-1]
             pub.put(payload)
-            if observations is not None:  # before the event: the recorder reads the file when it sees that
-                save_observation(observations / command_file(seq), obs)
-                save_observation(observations / "latest.npz", obs)
-            log.write("command", seq=seq, gesture=obs.label, why=why)
-            if first_im is not None and hand_over is not None:
-                hand_over(first_im)
+            if seen is not None:  # before its command's note: the launcher waits for it to place the swarm
+                log.write(seen)
+            log.write(Commanded(seq, obs.label, why, obs.mask))
             if seq == 1 and started is not None and stream.is_file:
                 stream.hold()
                 started.wait(HOLD_SECONDS)

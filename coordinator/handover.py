@@ -1,112 +1,47 @@
-"""The coordinator hands the imitation it perceived to the process that launched it: through a pipe.
+"""What crosses between an imitation's launcher and its coordinator process: records on the run's bus.
 
-The coordinator process is the one owner of perception (docs/architecture.md, "One imitation run"): for a
-file and for a camera alike it observes, builds the imitation (coordinator/control/imitation_setup.py
-`imitation_for`: set-up and commands) and broadcasts the commands. The launching process needs the same
-imitation to place the swarm, start the recorder and score the formation, so the coordinator writes it once,
-whole, on a pipe the launcher made for it (`--handover FD`), and closes its end:
+The imitation is planned where the swarm runs (docs/architecture.md, "One imitation run"): the launcher
+places the swarm itself, and its coordinator process only observes and commands. What still crosses is a
+versioned record of the agent crate (agent/protocol/imitation.py, imitation.rs), checked on receipt:
 
-    b"fluidswarm-imitation <length>\\n" + an .npz of <length> bytes (arrays, and one JSON entry for the rest)
+- for a file, the launcher's plan (`hand_plan` puts it until the coordinator commands it; `await_plan` is
+  the coordinator's half: every command signed with the run's key, verified before it is taken);
+- for a camera, the coordinator's notes (`Notes`: the launcher hears them all, waits for the first command's
+  observation with `wait_seen`, and keeps the rest for the record and the score).
 
-The launcher waits for it with a deadline (`receive`): an imitation, or `CoordinatorFailed` naming why not —
-the coordinator's own one-line error if it exited, or the deadline. Nothing is polled or left on disk.
+A coordinator that fails before it is heard is its own one-line `CoordinatorFailed` (its error line from
+its stderr, or the deadline's message); nothing is polled on disk, nothing crosses a pipe.
 """
 
 from __future__ import annotations
 
-import io
-import json
-import os
-import select
 import subprocess
+import threading
 import time
 from collections.abc import Callable
-from dataclasses import asdict
 
-import numpy as np
-
-from agent.protocol.command import parse_body
+from agent.protocol import keys
+from agent.protocol.command import CommandRejected
+from agent.protocol.command import decode as decode_command
 from agent.protocol.errors import UserError
-from agent.sph.params import SPHParams
-from agent.sph.particle import Control
-from agent.sph.robot import RobotModel
-from agent.sph.setups import Setup
-from coordinator.control.geometry import ImageToDomain
-from coordinator.control.imitation_setup import Imitation
-from coordinator.control.observe import Observation
+from agent.protocol.imitation import (
+    Missing,
+    Note,
+    Plan,
+    Seen,
+    decode_note,
+    decode_plan,
+    encode_plan,
+    note_key,
+    plan_key,
+)
 
-MAGIC = b"fluidswarm-imitation "
-MAX_BYTES = 1 << 30  # a 20000 x 20000 picture is refused by perception long before this
+PLAN_PERIOD = 0.2  # s between the launcher's puts of its plan, until its coordinator commands
 ERROR_PREFIX = "fluidswarm coordinator: error: "
 
 
-class HandoverFailed(UserError):
-    """The coordinator could not write its imitation on the hand-over pipe; the message names the pipe."""
-
-
 class CoordinatorFailed(UserError):
-    """The coordinator process did not hand over an imitation; the message says why (its own error line)."""
-
-
-def encode(im: Imitation) -> bytes:
-    """The imitation as one framed .npz (no pickles: every array numeric or bool, the rest JSON)."""
-    obs, setup = im.observation, im.setup
-    arrays = {
-        "mask": im.mask,
-        "obs_mask": obs.mask,
-        "states": setup.states,
-        "classes": setup.classes,
-        "ids": setup.ids,
-    }
-    if obs.frame is not None:
-        arrays["frame"] = obs.frame
-    arrays.update({f"part_{k}": v for k, v in obs.parts.items()})
-    rest = {
-        "transform": im.transform.as_dict(),
-        "commands": [[int(first), c.body()] for first, c in im.commands],
-        "controls": [asdict(c) for c in setup.controls],
-        "class_names": list(setup.class_names),
-        "params": setup.params.as_dict(),
-        "robot": setup.robot.as_dict(),
-        "observation": {"kind": obs.kind, "label": obs.label, "index": obs.index},
-    }
-    arrays["rest"] = np.frombuffer(json.dumps(rest).encode(), np.uint8)
-    buf = io.BytesIO()
-    np.savez(buf, allow_pickle=False, **arrays)
-    data = buf.getvalue()
-    return MAGIC + str(len(data)).encode() + b"\n" + data
-
-
-def decode(data: bytes) -> Imitation:
-    """The imitation `encode` wrote (the .npz part); ValueError/KeyError on anything else."""
-    with np.load(io.BytesIO(data), allow_pickle=False) as z:
-        rest = json.loads(z["rest"].tobytes())
-        parts = {k.removeprefix("part_"): z[k].astype(bool) for k in z.files if k.startswith("part_")}
-        frame = z["frame"] if "frame" in z.files else None
-        o = rest["observation"]
-        obs = Observation(str(o["kind"]), z["obs_mask"].astype(bool), str(o["label"]), frame, parts, int(o["index"]))
-        p = dict(rest["params"], domain=tuple(rest["params"]["domain"]))
-        setup = Setup(
-            z["ids"],
-            z["states"],
-            [Control(**c) for c in rest["controls"]],
-            z["classes"],
-            tuple(rest["class_names"]),
-            SPHParams(**p),
-            RobotModel(**rest["robot"]),
-        )
-        commands = [(int(first), parse_body(body)) for first, body in rest["commands"]]
-        return Imitation(z["mask"].astype(bool), ImageToDomain(**rest["transform"]), commands, setup, obs)
-
-
-def send(fd: int, im: Imitation) -> None:
-    """Write `im` on the hand-over pipe `fd` and close it (the launcher reads to its end). HandoverFailed if
-    the pipe cannot take it (not a pipe of ours, or the launcher gone)."""
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(encode(im))
-    except OSError as exc:
-        raise HandoverFailed(f"--handover {fd}: {exc.strerror or exc}") from None
+    """The coordinator process was not heard as it should; the message says why (its own error line)."""
 
 
 def error_line(proc: subprocess.Popen) -> str:
@@ -120,40 +55,111 @@ def error_line(proc: subprocess.Popen) -> str:
     return lines[-1][len(ERROR_PREFIX) :] if lines else ""
 
 
-def receive(
-    fd: int, proc: subprocess.Popen, timeout: float, timed_out: Callable[[], str], what: str = "the coordinator"
-) -> Imitation:
-    """The imitation the coordinator `proc` writes on the pipe `fd` (read end; closed here) within `timeout` s.
+def hand_plan(session, run: str, plan: Plan, proc: subprocess.Popen, timeout: float, what: str = "the coordinator"):
+    """Put `plan` on the run's plan key every PLAN_PERIOD s until the coordinator `proc` commands: one of the
+    plan's commands heard on the command key (a put before the coordinator subscribed is heard by nobody).
+    CoordinatorFailed if it ends first (its error line) or says nothing within `timeout` s."""
+    envelopes = {env for _first, env in plan.commands}
+    heard = threading.Event()
 
-    If the pipe ends first (the coordinator exited, or closed it without a whole imitation), CoordinatorFailed
-    with its error line; at the deadline, CoordinatorFailed with `timed_out()` (which says what was awaited)."""
-    data = bytearray()
+    def on_command(sample) -> None:
+        if sample.payload.to_bytes() in envelopes:
+            heard.set()
+
+    sub = session.declare_subscriber(keys.command_key(run), on_command)
+    data, deadline = encode_plan(plan), time.monotonic() + timeout
+    try:
+        while not heard.is_set():
+            code = proc.poll()
+            if code is not None:
+                raise CoordinatorFailed(error_line(proc) or f"{what} ended before it commanded (exit code {code})")
+            if time.monotonic() > deadline:
+                raise CoordinatorFailed(f"{what} did not command the launcher's plan within {timeout:.0f} s")
+            session.put(plan_key(run), data)
+            heard.wait(PLAN_PERIOD)
+    finally:
+        sub.undeclare()
+
+
+def await_plan(session, run: str, secret: bytes, stop: threading.Event, timeout: float) -> Plan | None:
+    """The coordinator's half: the first plan heard on the run's plan key whose commands are all signed with
+    the run's key (`secret`) and valid (command.rs); anything else on that key is dropped. None if `stop` is
+    set or nothing valid came within `timeout` s."""
+    got: list[Plan] = []
+    ready = threading.Event()
+
+    def on_plan(sample) -> None:
+        if ready.is_set() or str(sample.key_expr) != plan_key(run):
+            return
+        plan = decode_plan(sample.payload.to_bytes())
+        if plan is None:
+            return
+        try:
+            for _first, env in plan.commands:
+                decode_command(env, secret)
+        except CommandRejected:
+            return
+        got.append(plan)
+        ready.set()
+
+    sub = session.declare_subscriber(plan_key(run), on_plan)
     deadline = time.monotonic() + timeout
     try:
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise CoordinatorFailed(timed_out())
-            ready, _, _ = select.select([fd], [], [], left)
-            if not ready:
-                continue
-            chunk = os.read(fd, 1 << 20)
-            if not chunk:
-                break
-            data += chunk
-            if len(data) > MAX_BYTES + 64:
-                raise CoordinatorFailed(f"{what} handed over more than {MAX_BYTES} bytes")
+        while not ready.is_set() and not stop.is_set() and time.monotonic() < deadline:
+            ready.wait(0.05)
     finally:
-        os.close(fd)
-    header, _, body = bytes(data).partition(b"\n")
-    if header.startswith(MAGIC) and header[len(MAGIC) :].isdigit() and len(body) == int(header[len(MAGIC) :]):
-        try:
-            return decode(body)
-        except (ValueError, KeyError, TypeError) as exc:
-            raise CoordinatorFailed(f"{what} handed over a malformed imitation: {exc}") from None
-    try:  # the pipe ended without a whole imitation: the coordinator is ending (its error line says why)
-        code = proc.wait(10)
-    except subprocess.TimeoutExpired:  # it closed the pipe and lives on: its stderr has no end to read to
-        raise CoordinatorFailed(f"{what} closed its hand-over pipe without an imitation") from None
-    line = error_line(proc)
-    raise CoordinatorFailed(line or f"{what} ended without handing over an imitation (exit code {code})")
+        sub.undeclare()
+    return got[0] if got else None
+
+
+class Notes:
+    """The coordinator's notes of run `run`, heard by the launcher from before it starts the coordinator:
+    each valid one with the time.monotonic() it was heard (`heard`); anything else on the key is dropped."""
+
+    def __init__(self, session, run: str):
+        self.key = note_key(run)
+        self.heard: list[tuple[float, Note]] = []
+        self.dropped = 0
+        self._changed = threading.Condition()
+        self._sub = session.declare_subscriber(self.key, self._on_sample)
+
+    def _on_sample(self, sample) -> None:
+        note = decode_note(sample.payload.to_bytes()) if str(sample.key_expr) == self.key else None
+        with self._changed:
+            if note is None:
+                self.dropped += 1
+            else:
+                self.heard.append((time.monotonic(), note))
+                self._changed.notify_all()
+
+    def notes(self) -> list[tuple[float, Note]]:
+        with self._changed:
+            return list(self.heard)
+
+    def last_missing(self) -> str | None:
+        """The last reason the coordinator said it saw nothing to command."""
+        said = [n.what for _t, n in self.notes() if isinstance(n, Missing)]
+        return said[-1] if said else None
+
+    def wait_seen(
+        self, proc: subprocess.Popen, timeout: float, timed_out: Callable[[], str], what: str = "the coordinator"
+    ) -> Seen:
+        """The first command's observation, once heard within `timeout` s. CoordinatorFailed if the coordinator
+        `proc` ends first (its error line) or at the deadline (`timed_out()` says what was awaited)."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while True:
+                seen = next((n for _t, n in self.heard if isinstance(n, Seen)), None)
+                if seen is not None:
+                    return seen
+                if proc.poll() is not None:
+                    break
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise CoordinatorFailed(timed_out())
+                self._changed.wait(min(left, 0.1))
+        code = proc.wait()
+        raise CoordinatorFailed(error_line(proc) or f"{what} ended without a first observation (exit code {code})")
+
+    def close(self) -> None:
+        self._sub.undeclare()

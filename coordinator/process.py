@@ -1,33 +1,36 @@
 """The coordinator process: observe, recognise, broadcast the signed gesture command. Nothing else.
 
-It is the one process that perceives: it observes the input (a file, or a camera as frames come), builds
-the imitation (coordinator/control/imitation_setup.py `imitation_for`: the swarm's set-up and the commands)
-and, with `--handover FD`, hands it once to the process that launched it (coordinator/handover.py), which
-places the swarm, records and scores. It declares one publisher (the command key) and one liveliness
-token, and never subscribes to agent states. It republishes the current command every `period` s so an
-agent that starts late has it within one period, and publishes a new command (next sequence number) when
-the observed gesture changes between frames (thesis ch. 5, gesture sequences).
+It observes and commands on the bus; the swarm's set-up is planned by the process that runs the swarm.
+Launched by `imitate` for a file (`--plan`), it broadcasts the launcher's plan, heard on the bus
+(coordinator/handover.py `await_plan`: commands signed with the run's key, verified here); for a camera
+(`--camera`) it observes frames as they come and builds each command, and puts its notes on the bus
+(coordinator/camera.py; the launcher places the swarm from the first command's observation). Alone
+(`--input`, `fluidswarm coordinator`) it observes a file and builds its commands itself. It declares the
+command's publisher, the notes' and one liveliness token, and never subscribes to agent states. It
+republishes the current command every `period` s so an agent that starts late has it within one period, and
+publishes a new command (next sequence number) when the observed gesture changes between frames (thesis
+ch. 5, gesture sequences).
 
 `python -m coordinator --connect tcp/HOST:PORT --run NAME --input IMAGE|FOLDER|VIDEO --agents N`
 with the run's secret (hex) in the environment variable FLUIDSWARM_SECRET. With `--camera DEVICE|URL|FILE`
 instead of `--input` it observes frames as they come (coordinator/camera.py): a video file until its last
-frame (exit 0), a device or URL until it ends or stalls (then a one-line error, exit 1).
+frame (exit 0), a device or URL until it ends or stalls (then a one-line error, exit 1). With `--plan`
+(no --agents) it waits for the launcher's plan instead.
 """
 
 from __future__ import annotations
 
 import argparse
-import functools
 import os
 import sys
 import threading
 from contextlib import contextmanager
-from pathlib import Path
 
 import zenoh
 
 from agent.protocol import keys
 from agent.protocol.ctl import Clock, decode_ctl
+from agent.protocol.imitation import encode_note, note_key
 from agent.protocol.session import client_config
 from agent.protocol.stopping import stop_on_signals
 from coordinator import handover
@@ -37,6 +40,8 @@ from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER,
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from perception.stream import StreamError, StreamParams
+
+PLAN_SECONDS = 120.0  # s a --plan coordinator waits for its launcher's plan (the launcher puts it as it starts us)
 
 
 class SwarmClock:
@@ -83,15 +88,11 @@ def main(argv: list[str] | None = None) -> int:
         "--ros2-router", default="", help="camera ros2:TOPIC: the ROS 2 system's router (default tcp/localhost:7447)"
     )
     ap.add_argument(
-        "--observations", help="camera: folder for latest.npz and events.jsonl (the launcher reads them at the end)"
+        "--plan",
+        action="store_true",
+        help="broadcast the launcher's plan, heard on the run's imitation/plan key (agent/protocol/imitation.py)",
     )
-    ap.add_argument(
-        "--handover",
-        type=int,
-        default=None,
-        help="FD: a pipe to write the imitation on, once (coordinator/handover.py; the launching process reads it)",
-    )
-    ap.add_argument("--agents", type=int, required=True)
+    ap.add_argument("--agents", type=int, default=None, help="--input, --camera: the swarm's size")
     ap.add_argument("--controller", default=DEFAULT_CONTROLLER, choices=CONTROLLERS)
     ap.add_argument("--frame", type=int, default=None, help="show only this frame of a clip/folder (default: all)")
     ap.add_argument("--period", type=float, default=0.2, help="s between republications (late joiners)")
@@ -113,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if (
         not keys.valid_run_name(args.run)
-        or args.agents < 1
+        or (args.agents is not None and args.agents < 1)
         or args.period <= 0
         or args.frame_steps < 0
         or not args.frame_seconds > 0
@@ -123,8 +124,13 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    if (args.input is None) == (args.camera is None):
-        print("fluidswarm coordinator: error: give --input or --camera (one of them)", file=sys.stderr)
+    if (args.input is not None) + (args.camera is not None) + args.plan != 1:
+        print("fluidswarm coordinator: error: give --input, --camera or --plan (one of them)", file=sys.stderr)
+        return 2
+    if args.plan:
+        return _planned(args, secret)
+    if args.agents is None:
+        print("fluidswarm coordinator: error: --input and --camera need --agents", file=sys.stderr)
         return 2
     if args.camera:
         return _camera(args, secret)
@@ -135,28 +141,39 @@ def main(argv: list[str] | None = None) -> int:
         problem = str(exc) if str(args.input) in str(exc) else f"{args.input}: {exc}"
         print(f"fluidswarm coordinator: error: {problem}", file=sys.stderr)
         return 1
-    if args.handover is not None:
-        try:
-            handover.send(args.handover, im)
-        except handover.HandoverFailed as exc:
-            print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
-            return 1
-    commands = im.commands
     with _command_channel(args) as (session, pub, stop):
-        clock = None
-        if args.frame_steps:
-            clock = SwarmClock(args.run)  # the exact key only: a put on `fluidswarm/**` reaches it too
-            session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
-        ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
-        payloads = [(first, c.encode(secret)) for first, c in commands]
-        tick = 0
-        while not stop.is_set():
-            shown = clock.step // args.frame_steps if clock is not None else tick // ticks_per_frame
-            current = [p for first, p in payloads if first <= shown][-1]
-            pub.put(current)
-            tick += 1
-            stop.wait(args.period)
+        _broadcast(args, session, pub, stop, [(first, c.encode(secret)) for first, c in im.commands], args.frame_steps)
     return 0
+
+
+def _planned(args, secret: bytes) -> int:
+    """The launcher's plan (coordinator/handover.py await_plan: signed commands, verified here too), broadcast."""
+    with _command_channel(args) as (session, pub, stop):
+        plan = handover.await_plan(session, args.run, secret, stop, PLAN_SECONDS)
+        if plan is None:
+            if stop.is_set():
+                return 0
+            print(f"fluidswarm coordinator: error: no valid plan heard in {PLAN_SECONDS:.0f} s", file=sys.stderr)
+            return 1
+        _broadcast(args, session, pub, stop, list(plan.commands), plan.frame_steps)
+    return 0
+
+
+def _broadcast(args, session, pub, stop, payloads: list[tuple[int, bytes]], frame_steps: int) -> None:
+    """Put the signed command of the frame shown every `--period` s until `stop`: frame k from the run's
+    clock step k * frame_steps (frame_steps 0: every --frame-seconds; one command: that one all along)."""
+    clock = None
+    if frame_steps:
+        clock = SwarmClock(args.run)  # the exact key only: a put on `fluidswarm/**` reaches it too
+        session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
+    ticks_per_frame = max(1, int(round(args.frame_seconds / args.period)))
+    tick = 0
+    while not stop.is_set():
+        shown = clock.step // frame_steps if clock is not None else tick // ticks_per_frame
+        current = [p for first, p in payloads if first <= shown][-1]
+        pub.put(current)
+        tick += 1
+        stop.wait(args.period)
 
 
 @contextmanager
@@ -184,11 +201,11 @@ def _camera(args, secret: bytes) -> int:
     except ValueError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 2
-    observations = Path(args.observations) if args.observations else None
     try:
         with _command_channel(args) as (session, pub, stop):
             clock = SwarmClock(args.run)  # a video file is held until the swarm steps (its first clock)
             session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
+            notes = session.declare_publisher(note_key(args.run))
             run_camera(
                 args.camera,
                 params,
@@ -198,13 +215,12 @@ def _camera(args, secret: bytes) -> int:
                 pub,
                 stop,
                 args.period,
-                observations,
+                lambda note: notes.put(encode_note(note)),
                 subject=args.subject,
                 started=clock.started,
                 ros2_router=args.ros2_router,
-                hand_over=None if args.handover is None else functools.partial(handover.send, args.handover),
             )
-    except (StreamError, handover.HandoverFailed) as exc:
+    except StreamError as exc:
         print(f"fluidswarm coordinator: error: {exc}", file=sys.stderr)
         return 1
     return 0

@@ -1,9 +1,10 @@
 """Imitation runs of a file (image, folder of frames, video): one frame, or a gesture sequence.
 
-The coordinator process perceives, once: it observes the input, builds the imitation (the swarm's start,
-the transform, the commands: coordinator/control/imitation_setup.py `imitation_for`), hands it to this
-process through a pipe (coordinator/handover.py) and signs and broadcasts the commands. The run is a
-`fluidswarm.run.Run`; this module is its `RunKind` (drive: start the coordinator, take its imitation,
+The imitation is planned here, in the process that runs the swarm: perception observes the input once and
+coordinator/control/imitation_setup.py `imitation_for` (pure) gives the swarm's start, the transform and the
+commands. The coordinator process is handed the commands, signed with the run's key, as a plan on the bus
+(agent/protocol/imitation.py, coordinator/handover.py `hand_plan`) and broadcasts them, paced by the run's
+clock. The run is a `fluidswarm.run.Run`; this module is its `RunKind` (drive: plan, start the coordinator,
 record, run the swarm with the settle watch; score: fidelity of the final formation, the formation PNG).
 """
 
@@ -19,47 +20,64 @@ import cv2
 import numpy as np
 
 from agent.protocol.errors import UserError
+from agent.protocol.imitation import Plan
 from agent.sph.obstacles import Obstacle
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator import handover
 from coordinator.control.fidelity import Fidelity
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation
+from coordinator.control.fill import ShapeError
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, imitation_of_input
 from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
 from fluidswarm.run_config import AGENTS, RunConfig
+from perception.io import InputError
+from perception.segmentation import SegmentationError
 from swarmhost.supervisor import die_with_parent
 
-PERCEIVE_SECONDS = 300.0  # s for the coordinator to perceive a file (a long clip on a loaded 2-core machine)
+PLAN_SECONDS = 120.0  # s for the coordinator to start and command the plan (a loaded 2-core machine)
 
 
-def start_coordinator(run: Run, args: list[str]) -> tuple[subprocess.Popen, int]:
-    """The coordinator process on the run's bus, with the run's command key in its environment, and the read
-    end of the pipe it hands its imitation over on (coordinator/handover.py `receive`)."""
+def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
+    """The coordinator process on the run's bus (`python -m coordinator ARGS`), with the run's command key and
+    its credentials in its environment; its one-line error is read from its stderr (handover.error_line)."""
     la = run.launcher
     # the run's command key and the coordinator's credentials (docs/security.md) travel in its environment
     env = dict(os.environ, FLUIDSWARM_SECRET=la.secret, **la.access.env_for("coordinator"))
-    read, write = os.pipe()
-    cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run, "--handover", str(write)]
-    try:
-        proc = subprocess.Popen(
-            cmd + args,
-            env=env,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            pass_fds=(write,),
-            preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
-        )
-    except BaseException:
-        os.close(read)
-        raise
-    finally:
-        os.close(write)  # the coordinator's copy is the only writer left: its end is the pipe's end
+    cmd = [sys.executable, "-m", "coordinator", "--connect", la.endpoint, "--run", la.run]
+    proc = subprocess.Popen(
+        cmd + args,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        preexec_fn=die_with_parent,  # noqa: PLW1509  # only prctl(PR_SET_PDEATHSIG): no locks, no allocation
+    )
     run.add_coordinator(proc)
-    return proc, read
+    return proc
+
+
+def command_plan(run: Run, plan: Plan) -> subprocess.Popen:
+    """The run's coordinator, commanding `plan`: started, and handed the plan on the bus until it commands
+    (coordinator/handover.py hand_plan; one that fails first is its own one-line CoordinatorFailed)."""
+    proc = start_coordinator(run, ["--plan"])
+    handover.hand_plan(run.launcher.session, run.launcher.run, plan, proc, PLAN_SECONDS)
+    return proc
+
+
+class PerceptionFailed(UserError):
+    """The input could not be perceived or imitated: one line naming the input and why."""
+
+
+def perceive(input_path: str, agents: int, controller: str, frame: int | None) -> Imitation:
+    """The imitation of `input_path` (coordinator/control/imitation_setup.py, pure), planned here where the
+    swarm runs: its frame `frame`, or with None all its frames as a gesture sequence."""
+    try:
+        return imitation_of_input(input_path, agents, controller, frame)
+    except (InputError, SegmentationError, ShapeError) as exc:
+        raise PerceptionFailed(str(exc) if str(input_path) in str(exc) else f"{input_path}: {exc}") from None
 
 
 def write_target(folder: Path, im: Imitation, frame_bgr: np.ndarray) -> tuple[str, str]:
@@ -141,18 +159,7 @@ class FileImitation:
     def drive(self, run: Run) -> None:
         sequence = self.frame_steps > 0
         frame = None if sequence else (0 if self.frame is None else self.frame)
-        coord, pipe = start_coordinator(
-            run,
-            ["--input", str(self.input_path), "--agents", str(self.agents), "--controller", self.controller]
-            + ([] if frame is None else ["--frame", str(frame)])
-            + (["--frame-steps", str(self.frame_steps)] if sequence else []),
-        )
-        im = handover.receive(
-            pipe,
-            coord,
-            PERCEIVE_SECONDS,
-            lambda: f"{self.input_path}: the coordinator did not perceive it in {PERCEIVE_SECONDS:.0f} s",
-        )
+        im = perceive(self.input_path, self.agents, self.controller, frame)
         if self.sph or self.dt:
             im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
         if self.start is not None:
@@ -168,6 +175,9 @@ class FileImitation:
         if self.radio != PERFECT:
             im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
         self.im = im
+        # its coordinator broadcasts the planned commands (signed with the run's key), paced by the run's clock
+        plan = Plan(tuple((first, c.encode(bytes.fromhex(run.launcher.secret))) for first, c in im.commands))
+        command_plan(run, replace(plan, frame_steps=self.frame_steps if sequence else 0))
         tmp = run.scratch
         assert im.observation.frame is not None  # observe() keeps the picture of every frame it read
         target, image = write_target(tmp, im, im.observation.frame)

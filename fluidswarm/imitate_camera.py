@@ -1,8 +1,9 @@
 """`fluidswarm imitate --camera DEVICE|URL|FILE`: the swarm follows a person or a hand watched live.
 
-The coordinator process reads the camera (coordinator/camera.py) and hands over the imitation of the
-subject's first observation (coordinator/handover.py); the swarm is placed and the recorder started from
-it, then the agents follow
+The coordinator process reads the camera (coordinator/camera.py) and puts its notes on the run's bus
+(agent/protocol/imitation.py, heard here by coordinator/handover.py `Notes`): from the subject's first
+observation this process plans the imitation itself (imitation_setup.py `imitation_for`, pure: the same map
+and first command the coordinator built), places the swarm and starts the recorder, then the agents follow
 each new command as the gesture changes, paced to the wall clock (simulated time = wall time, never
 faster; the record's `realtime_factor` says what was reached). The run lasts `steps` steps, or until a
 video file's last frame: then the coordinator exits 0 and the swarm finishes a few steps later, all agents
@@ -13,23 +14,24 @@ the subject, each command's gesture and when it came (`gestures`), and what was 
 
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import threading
 import time
 from dataclasses import dataclass, replace
-from pathlib import Path
+
+import numpy as np
 
 from agent.protocol.errors import UserError
+from agent.protocol.imitation import Commanded, End, Missing, Subject
 from agent.protocol.spec import SyncMode
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator import handover
-from coordinator.camera import load_observation
 from coordinator.control.fidelity import fidelity
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
-from fluidswarm.imitate import run_options, score_formation, start_coordinator, write_target
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, imitation_for
+from coordinator.control.observe import Observation
+from fluidswarm.imitate import run_options, score_formation, start_coordinator
 from fluidswarm.run import Run, RunRecord, SwarmPlan
 from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS, Access, Camera, RunConfig
 
@@ -42,28 +44,11 @@ def _coordinator_error(coord: subprocess.Popen, source: str) -> str:
     return handover.error_line(coord) or f"camera {source}: the coordinator stopped (code {coord.returncode})"
 
 
-def _nothing_seen(folder: Path, source: str, timeout: float, subject: str) -> str:
-    """What to say when no subject was seen in time: the last reason the coordinator logged."""
+def _nothing_seen(notes: handover.Notes, source: str, timeout: float, subject: str) -> str:
+    """What to say when no subject was seen in time: the last reason the coordinator gave."""
     what = "hand or person" if subject == "auto" else subject
-    last = [e["what"] for e in read_events(folder) if e.get("event") == "missing"]
-    return f"camera {source}: no {what} seen in {timeout:.0f} s" + (f" ({last[-1]})" if last else "")
-
-
-def read_events(folder: Path) -> list[dict]:
-    """The coordinator's events.jsonl (coordinator/camera.py EventLog); a torn last line is left out."""
-    out: list[dict] = []
-    try:
-        lines = (folder / "events.jsonl").read_text().splitlines()
-    except OSError:
-        return out
-    for line in lines:
-        try:
-            e = json.loads(line)
-        except ValueError:
-            continue
-        if isinstance(e, dict) and isinstance(e.get("t"), (int, float)):
-            out.append(e)
-    return out
+    last = notes.last_missing()
+    return f"camera {source}: no {what} seen in {timeout:.0f} s" + (f" ({last})" if last else "")
 
 
 class CoordinatorWatch:
@@ -118,7 +103,10 @@ class CameraImitation:
     def drive(self, run: Run) -> None:
         o = run.options
         tmp = run.scratch
-        coord, pipe = start_coordinator(
+        # heard from before the coordinator starts: none of its notes is said before we listen
+        self.notes = notes = handover.Notes(run.launcher.session, run.launcher.run)
+        run.on_stop(notes.close)
+        coord = start_coordinator(
             run,
             [
                 "--camera",
@@ -131,8 +119,6 @@ class CameraImitation:
                 str(self.agents),
                 "--controller",
                 self.controller,
-                "--observations",
-                str(tmp),
                 "--subject",
                 self.subject,
                 *(["--ros2-router", self.ros2_router] if self.ros2_router else []),
@@ -143,14 +129,15 @@ class CameraImitation:
         run.on_start(watch.start)
         run.on_stop(watch.stop)
         wait = FIRST_SECONDS + self.stall_seconds
-        self.im = im = handover.receive(
-            pipe,
+        seen = notes.wait_seen(
             coord,
             wait,
-            lambda: _nothing_seen(tmp, self.source, wait, self.subject),
+            lambda: _nothing_seen(notes, self.source, wait, self.subject),
             what=f"the coordinator of camera {self.source}",
         )
-        assert im.observation.frame is not None  # a camera's observation carries its picture
+        # planned here, from what the coordinator saw: its map and first command are the ones it built
+        first = Observation(seen.observed, seen.mask, seen.label, None, seen.parts, seen.index)
+        self.im = im = imitation_for([first], self.agents, self.controller)
         if self.robot != POINT:
             try:  # before the recorder and the agents start
                 im.setup = im.setup.with_robot(self.robot)
@@ -158,9 +145,13 @@ class CameraImitation:
                 raise UserError(f"--robot: {exc}") from None
         if self.radio != PERFECT:
             im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
-        target, image = write_target(tmp, im, im.observation.frame)
+        target, image = tmp / "target.npz", tmp / "input.jpg"
+        t = im.transform
+        np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
+        image.write_bytes(seen.picture)  # the frame as the coordinator encoded it (what cv2.imwrite writes)
+        heard = notes.notes()
         # the subject the coordinator chose (said before its first observation): with `auto`, not "auto"
-        chosen = next((e for e in read_events(tmp) if e.get("event") == "subject"), {})
+        chosen = next((n for _t, n in heard if isinstance(n, Subject)), Subject(self.subject, "given"))
         meta = {
             "scenario": o.name,
             "camera": str(self.source),
@@ -176,33 +167,34 @@ class CameraImitation:
             "radio": im.setup.radio.as_dict(),
             "agent_ids": list(range(self.agents)),
             "transform": im.transform.as_dict(),
-            "subject": str(chosen.get("subject", self.subject)),
-            "subject_chosen": str(chosen.get("how", "given")),
+            "subject": chosen.subject,
+            "subject_chosen": chosen.how,
             "realtime": True,
         }
-        # the recorder follows the coordinator's notes and commands: its score is the last gesture's, as ours
-        run.record_to(meta, im.setup.params.dt, target=target, image=image, coordinator_events=str(tmp))
+        # The recorder follows the coordinator's notes and commands (its score is the last gesture's, as ours);
+        # what was said before it listens is handed to it.
+        early = tuple(n.what for _t, n in heard if isinstance(n, Missing))
+        run.record_to(meta, im.setup.params.dt, target=str(target), image=str(image), coordinator_notes=early)
         run.swarm(SwarmPlan(im.setup, self.steps))
-        self.latest = load_observation(tmp / "latest.npz")
-        self.events = read_events(tmp)  # before the run's scratch folder goes
+        self.heard = notes.notes()
+        commanded = [n for _t, n in self.heard if isinstance(n, Commanded)]
+        self.latest = commanded[-1].mask if commanded else im.mask  # the last gesture commanded
         self.dt = im.setup.params.dt
 
     def account(self, run: Run) -> None:
         """The subject, each command's gesture and simulated time, and what was not found, into the record."""
         r, t0 = run.record, run.launcher.pacer.started_at
-        for e in self.events:
-            # Simulated time of an event: the wall time since the start, at the reached real-time factor.
-            t = max(0.0, e["t"] - t0) * min(1.0, r.realtime_factor or 1.0) if t0 is not None else 0.0
-            if e.get("event") == "subject":
-                r.subject = f"{e.get('subject')} ({e.get('how')})"
-            elif e.get("event") == "command":
-                r.gestures.append(
-                    {"seq": e.get("seq"), "gesture": str(e.get("gesture")), "t": round(t, 2), "why": str(e.get("why"))}
-                )
-            elif e.get("event") == "missing":
-                r.notes.append(f"t={t:.2f} s: {e.get('what')}")
-            elif e.get("event") == "end":
-                r.notes.append(f"t={t:.2f} s: camera {self.source}: the video ended after {e.get('frames')} frames")
+        for heard_at, note in self.heard:
+            # Simulated time of a note: the wall time since the start, at the reached real-time factor.
+            t = max(0.0, heard_at - t0) * min(1.0, r.realtime_factor or 1.0) if t0 is not None else 0.0
+            if isinstance(note, Subject):
+                r.subject = f"{note.subject} ({note.how})"
+            elif isinstance(note, Commanded):
+                r.gestures.append({"seq": note.seq, "gesture": note.gesture, "t": round(t, 2), "why": note.why})
+            elif isinstance(note, Missing):
+                r.notes.append(f"t={t:.2f} s: {note.what}")
+            elif isinstance(note, End):
+                r.notes.append(f"t={t:.2f} s: camera {self.source}: the video ended after {note.frames} frames")
 
     def score(self, run: Run) -> None:
         self.account(run)
@@ -211,10 +203,10 @@ class CameraImitation:
         if self.watch.failed or coord.returncode not in (0, -15, None):
             raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
         # Against the last gesture commanded, from the final reports (the recorder scores the same target,
-        # followed from the coordinator's events, on the last step it wrote).
+        # followed from the coordinator's notes, on the last step it wrote).
         _ids, pos = run.record.done_positions()
-        score = fidelity(self.latest.mask, self.im.transform, pos)
-        score_formation(run, run.record, self.latest.mask, self.im, f"camera {self.source}", score)
+        score = fidelity(self.latest, self.im.transform, pos)
+        score_formation(run, run.record, self.latest, self.im, f"camera {self.source}", score)
 
 
 def imitate_camera(camera: Camera, config: RunConfig) -> RunRecord:

@@ -335,10 +335,10 @@ class Run:
         target: str = "",
         image: str = "",
         path: str | None = None,
-        coordinator_events: str = "",
+        coordinator_notes: tuple[str, ...] | None = None,
     ) -> Path | None:
         """Start the recorder on `path` (default `<out>/<name>.mcap`; nothing without either);
-        `coordinator_events`: a camera coordinator's events folder, which it follows."""
+        `coordinator_notes`: it follows a camera coordinator's notes on the bus (these said before it started)."""
         if path:
             self.mcap = Path(path)
         elif self.options.out is not None:
@@ -352,7 +352,7 @@ class Run:
             target=target,
             image=image,
             live=self.options.live,
-            coordinator_events=coordinator_events,
+            coordinator_notes=coordinator_notes,
             ros2=self.options.ros2,
         )
         return self.mcap

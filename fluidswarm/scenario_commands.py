@@ -181,6 +181,7 @@ def run_once(
     """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock;
     `hosts`: with workers on other hosts (worker_command.workers_options: connect, run, workers, ...)."""
     from coordinator.handover import CoordinatorFailed
+    from fluidswarm.imitate import PerceptionFailed
     from fluidswarm.run import Run, RunOptions
 
     kind = kind_for(sc, agents)
@@ -202,7 +203,7 @@ def run_once(
     try:
         with Run(kind, options) as run:
             kind.drive(run)
-    except CoordinatorFailed as exc:  # the coordinator perceives the input: its line names the input
+    except (PerceptionFailed, CoordinatorFailed) as exc:  # perception's line names the input
         raise UserError(f"{sc.path}: input {exc}") from None
     return run.record
 

@@ -204,7 +204,7 @@ class Launcher:
         target: str = "",
         image: str = "",
         live: str = "",
-        coordinator_events: str = "",
+        coordinator_notes: tuple[str, ...] | None = None,
         ros2: str = "",
     ):
         if self._events is None:
@@ -217,7 +217,7 @@ class Launcher:
             target,
             image,
             live,
-            coordinator_events,
+            coordinator_notes,
             launcher_events=str(self._events),
             ros2=ros2,
         )

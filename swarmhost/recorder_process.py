@@ -35,14 +35,15 @@ class RecorderProcess:
         target: str = "",
         image: str = "",
         live: str = "",
-        coordinator_events: str = "",
+        coordinator_notes: tuple[str, ...] | None = None,
         launcher_events: str = "",
         ros2: str = "",
     ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
         liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
         written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket;
-        `coordinator_events`: a camera coordinator's events folder, `launcher_events` the launcher's, followed
+        `coordinator_notes`: follow a camera coordinator's notes on the bus (the missing notes said before it
+        started: written at t = 0), `launcher_events`: the launcher's events folder, followed
         (recording/coordinator_events.py); `ros2`: the ROS 2 router's endpoint, the run also published there
         (fluidswarm/ros2/bridge.py)."""
         check_writable(Path(path))
@@ -73,8 +74,8 @@ class RecorderProcess:
             cmd += ["--image", image]
         if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
             cmd += ["--live", live]
-        if coordinator_events:
-            cmd += ["--coordinator-events", coordinator_events]
+        if coordinator_notes is not None:
+            cmd += ["--coordinator-notes", json.dumps(list(coordinator_notes))]
         if launcher_events:
             cmd += ["--launcher-events", launcher_events]
         if ros2:

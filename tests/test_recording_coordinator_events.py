@@ -1,7 +1,7 @@
-"""The recorder's follow of a camera coordinator's events (fluidswarm/recording/coordinator_events.py): its
-notes become foxglove.Log events of the coordinator, each later command's silhouette a target, and the
-file's fidelity names the gesture it scored (the last). Written with the coordinator's own EventLog and
-save_observation, into a real MCAP file, read back."""
+"""The recorder's follow of a camera coordinator's notes (fluidswarm/recording/coordinator_events.py): its
+missing notes become foxglove.Log events of the coordinator, each later command's silhouette a target, and
+the file's fidelity names the gesture it scored (the last). The notes as the coordinator's own EventLog says
+them, encoded as on the bus (agent/protocol/imitation.py), into a real MCAP file, read back."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import json
 
 import numpy as np
 
-from coordinator.camera import EventLog, save_observation
+from agent.protocol.imitation import Commanded, Subject, encode_note, note_key
+from coordinator.camera import EventLog
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
-from coordinator.control.observe import Observation
-from fluidswarm.recording.coordinator_events import CoordinatorEvents, command_file, split_lines
+from fluidswarm.recording.coordinator_events import CoordinatorNotes, LauncherEvents, split_lines
 from fluidswarm.recording.reader import load_run, recorded_fidelity
 from fluidswarm.recording.writer import RunWriter
 from perception.io import load_image
@@ -28,35 +28,30 @@ def test_a_torn_last_line_waits_for_its_end():
 
 
 def test_notes_and_later_commands_are_written_as_events_and_targets(shared_image, tmp_path):
-    folder = tmp_path / "obs"
-    folder.mkdir()
-    log = EventLog(folder)
     frames = {c: load_image(shared_image(c)) for c in (5, 2)}
     masks = {c: hand_mask(f) for c, f in frames.items()}
     tf = ImageToDomain(scale=0.02, x0=-1.0, y0=1.0)
     with RunWriter(tmp_path / "run.mcap", {"scenario": "follow", "gesture": "hand_5"}) as w:
-        follow = CoordinatorEvents(folder, w, tf, "hand_5")
-        follow.poll(0.0)  # no file yet: nothing
-        log.write("subject", subject="hand", how="given")
-        log.write("command", seq=1, gesture="hand_5", why="first")
+        follow = CoordinatorNotes("r", w, tf, "hand_5", early=("no hand found: covers 1.2 %",))
+        log = EventLog(lambda note: follow.heard(note_key("r"), encode_note(note)))
+        follow.poll(0.3)  # the note said before the recorder started: at t = 0
+        log.write(Subject("hand", "given"))
+        log.write(Commanded(1, "hand_5", "first", masks[5]))
         follow.poll(0.5)
         log.missing("no hand found: no foreground: the image is blank (uniform)")
-        save_observation(folder / command_file(2), Observation("hand", masks[2], "hand_2", frames[2], {}))
-        log.write("command", seq=2, gesture="hand_2", why="gesture")
-        with open(folder / "events.jsonl", "a") as f:
-            f.write('{"t": 1.0, "event": "missing", "what": "torn')  # the coordinator still writing it
+        log.write(Commanded(2, "hand_2", "gesture", masks[2]))
+        follow.heard(note_key("r"), encode_note(Commanded(3, "hand_1", "gesture", masks[5]))[:-7])  # torn
+        follow.heard(note_key("other"), encode_note(Commanded(3, "hand_1", "gesture", masks[5])))  # another run's
         follow.poll(1.5)
-        with open(folder / "events.jsonl", "a") as f:
-            f.write(' line"}\n')
-        follow.poll(2.0)
         assert follow.gesture == "hand_2" and follow.target is not None and follow.notes == 2
+        assert follow.dropped == 2
         np.testing.assert_array_equal(follow.target[0], masks[2])
         w.write_fidelity(Fidelity(0.8, 0.9, 0.7, 0.1), gesture=follow.gesture)  # as the recorder closes
     run = load_run(tmp_path / "run.mcap", images=False)
     said = [(e.t, e.name, e.kind, e.level, e.message) for e in run.events]
     assert said == [
+        (0.0, "coordinator", "missing", 3, "no hand found: covers 1.2 %"),
         (1.5, "coordinator", "missing", 3, "no hand found: no foreground: the image is blank (uniform)"),
-        (2.0, "coordinator", "missing", 3, "torn line"),
     ]
     (target,) = run.targets  # the first command's is the recorder's --target, not written again
     assert target.t == 1.5 and (target.mask == masks[2]).all() and target.transform == tf
@@ -90,7 +85,7 @@ def test_a_lost_host_from_the_launchers_events_is_a_launcher_warning_naming_its_
     lose_host(30, 2, 5)  # a host this one knows nothing of: named by its first agent and size
     assert core.lost_hosts[1]["ids"] is None and "2 agents from agent 30" in written[1]
     with RunWriter(tmp_path / "run.mcap", {"scenario": "lost"}) as w:
-        follow = CoordinatorEvents(folder, w, None)
+        follow = LauncherEvents(folder, w)
         follow.poll(0.84)
         assert follow.notes == 2
     run = load_run(tmp_path / "run.mcap", images=False)

@@ -4,7 +4,7 @@ line, what was wrong and where (the file, the key, the process, the step).
     FluidswarmError
     ├── UserError       what a user can fix: a file, an argument, a scenario, a program not built
     │                   (InputError, SegmentationError, ShapeError, AuthFileError, BenchRecordError,
-    │                   AgentNotBuilt, the coordinator's CoordinatorFailed and HandoverFailed)
+    │                   AgentNotBuilt, the coordinator's CoordinatorFailed, PerceptionFailed)
     ├── SwarmError      a run's processes did not do their part: did not start or finish in time
     │                   (SwarmTimeout), ended or failed when needed (SwarmFailed; HelperLost)
     └── CommandRejected a gesture command an agent or follower refused (untrusted bytes, not the user's)

@@ -1,8 +1,9 @@
 """From what was observed to an imitation: silhouette, transform, SPH parameters, initial swarm, commands.
 
-`imitation_for` is the one function from observations to (set-up, commands); the coordinator process calls
-it for a file (`imitation_of_input`) and for a camera's first observation, and hands the result to the
-launching process (coordinator/handover.py); `reproduce` and the tests call the same function."""
+`imitation_for` is the one function from observations to (set-up, commands); the process that runs the swarm
+calls it for a file (`imitation_of_input`, fluidswarm/imitate.py) and for a camera's first observation, which
+its coordinator puts on the bus (fluidswarm/imitate_camera.py); `reproduce` and the tests call the same
+function."""
 
 from __future__ import annotations
 

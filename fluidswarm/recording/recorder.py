@@ -37,7 +37,7 @@ from agent.sph.robot import POINT, RobotKind, RobotModel
 from coordinator.control.fidelity import fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.contacts import ContactCounter
-from fluidswarm.recording.coordinator_events import CoordinatorEvents
+from fluidswarm.recording.coordinator_events import CoordinatorNotes, LauncherEvents
 from fluidswarm.recording.live import LiveServer, parse_address
 from fluidswarm.recording.steps import BATCH_GRACE_SECONDS, FINISH_LIMIT_SECONDS, FINISH_QUIET_SECONDS, StepAssembly
 from fluidswarm.recording.writer import RunWriter
@@ -157,8 +157,8 @@ def noting(writer: RunWriter, now):
 
 def record(recorder: Recorder, stop: threading.Event, poll: float = 0.2, follow: tuple = ()) -> None:
     """Take the run's messages until `stop` (agent/protocol/stopping.py) is set, within `poll` s; what is being
-    written then is written whole. `follow`: events folders (CoordinatorEvents: the camera coordinator's, the
-    launcher's), read between pumps."""
+    written then is written whole. `follow`: what else is written between pumps (CoordinatorNotes: the camera
+    coordinator's notes; LauncherEvents: the launcher's events folder)."""
     while not stop.is_set():
         recorder.pump(poll)
         for folder in follow:
@@ -175,9 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--target", help="npz with the target silhouette (mask, scale, x0, y0) for fidelity/replay")
     ap.add_argument("--image", help="the perception input picture, recorded as foxglove.CompressedImage")
     ap.add_argument(
-        "--coordinator-events",
-        metavar="DIR",
-        help="a camera coordinator's events folder: its notes as log events, each command's silhouette a target",
+        "--coordinator-notes",
+        metavar="JSON",
+        help="follow a camera coordinator's notes on the bus (log events, each command's silhouette a target); "
+        "JSON: the list of its missing notes said before the recording started",
     )
     ap.add_argument(
         "--launcher-events",
@@ -235,15 +236,23 @@ def main(argv: list[str] | None = None) -> int:
         with open(args.image, "rb") as f:
             writer.write_image(0.0, f.read(), frame_id="camera")
     follow = None
-    if args.coordinator_events:
+    if args.coordinator_notes is not None:
         gesture = metadata.get("gesture")
-        follow = CoordinatorEvents(
-            args.coordinator_events,
+        try:
+            early = json.loads(args.coordinator_notes)
+            assert isinstance(early, list) and all(isinstance(w, str) for w in early)
+        except (ValueError, AssertionError):
+            print("fluidswarm record: error: --coordinator-notes must be a JSON list of strings", file=sys.stderr)
+            writer.close()
+            return 2
+        follow = CoordinatorNotes(
+            args.run,
             writer,
             target[1] if target is not None else None,
             gesture if isinstance(gesture, str) else None,
+            tuple(early),
         )
-    launcher = CoordinatorEvents(args.launcher_events, writer, None) if args.launcher_events else None
+    launcher = LauncherEvents(args.launcher_events, writer) if args.launcher_events else None
     if obstacles:
         writer.write_obstacles(0.0, obstacles)
     counting = not robot.is_point or obstacles
@@ -269,6 +278,7 @@ def main(argv: list[str] | None = None) -> int:
             ),
             session.declare_subscriber(keys.event_expr(args.run), recorder.on_event),
             session.declare_subscriber(keys.command_key(args.run), recorder.on_command),
+            *([] if follow is None else [session.declare_subscriber(follow.key, follow.on_sample)]),
             # the final reports: an agent that reports it finished (or was stopped) left, it did not die
             session.declare_subscriber(keys.final_expr(args.run), recorder.on_final),
             # Direct too: an agent's alive token comes before its first state on the link, and must be queued
