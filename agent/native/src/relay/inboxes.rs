@@ -8,9 +8,10 @@
 //! cell subscriptions would (those put on its watched cells, its own left out: the agent drops it anyway),
 //! only grouped. What it chooses is *when* a group goes out: once every agent whose latest state is in one of
 //! the watched cells, and that was not left behind (its latest step at least `next` - 1), has been given its
-//! step-`next` state, or INBOX_WAIT after the group's first state. A state older than the step the group
+//! step-`next` state, or `wait` after the group's first state (INBOX_WAIT up, following the swarm's step
+//! period). A state older than the step the group
 //! waits for (a late one, a republication) goes out at once with whatever is pending. An agent that stopped
-//! sending (dead, frozen) is waited for once, INBOX_WAIT, then no more: its latest step falls behind.
+//! sending (dead, frozen) is waited for twice (`due`), then no more: its latest step falls behind.
 //!
 //! The launcher's pacing clock (`ctl/clock`, ~one tick per step) rides in the same messages instead of waking
 //! every agent once more: each message carries the latest clock. An agent whose latest state says it may now be
@@ -26,10 +27,17 @@ use std::time::{Duration, Instant};
 
 type Cell = (i64, i64);
 
-/// The longest a group waits for its last state. A lockstep step of N = 300 agents on 2 cores lasts ~50 ms, its
-/// states spread over it as the processes get a core: shorter, and a group would often go out in two parts
-/// (two wake-ups). Only a neighbour that stopped costs it, once.
+/// The least a group waits for its last state. A group's states spread over the swarm's step as the processes
+/// get a core (~30-50 ms at N = 300 on 2 cores, ~350 ms at N = 1000): a group that goes out before its last
+/// state came sends each state still missing alone, a wake-up each (17 per agent-step at N = 1000 with a fixed
+/// 60 ms). So the wait follows the swarm's step period, WAIT_PERIODS of it, within [INBOX_WAIT,
+/// MAX_INBOX_WAIT]. Only a neighbour that stopped costs it: two waits (`due`), once.
 pub const INBOX_WAIT: Duration = Duration::from_millis(60);
+/// The most a group waits: well inside the agent's own neighbour timeout (2 s; it republishes after a
+/// quarter of it), so the relay never holds a state longer than the agent would wait for it.
+pub const MAX_INBOX_WAIT: Duration = Duration::from_millis(400);
+/// The wait in step periods: a group's spread is at most about one period (each agent steps once a period).
+const WAIT_PERIODS: f64 = 1.5;
 /// At most this many records in one message (the agent refuses more): a full group goes out.
 pub const MAX_RECORDS: usize = 1024;
 pub const VERSION: u8 = 1;
@@ -68,8 +76,10 @@ struct Watcher {
     cells: Vec<Cell>,
     buf: Vec<u8>,
     count: usize,
-    /// when the pending group's first state came
+    /// when the pending group's first state came (or, once overdue, when it went out at its wait)
     since: Option<Instant>,
+    /// the group of step `next` went out once at its wait, incomplete (`due`)
+    overdue: bool,
     /// per sender, the highest step given to this agent (sent or pending)
     given: HashMap<u32, u32>,
     /// the step the pending group waits for (None: the first state sets it)
@@ -95,6 +105,10 @@ pub struct Inboxes {
     latest: HashMap<u32, (Cell, u32)>,
     /// the launcher's latest clock tick
     clock: Option<u64>,
+    /// the highest step any state had, and when it first came
+    top: Option<(u32, Instant)>,
+    /// the swarm's step period: a moving average of the time between the first states of consecutive steps
+    period: Option<Duration>,
 }
 
 /// Messages to put: (the agent whose inbox, the concatenated records).
@@ -128,6 +142,7 @@ impl Inboxes {
 
     /// A state the relay passed on: agent `from`'s step-`step` record, in `cell`.
     pub fn state(&mut self, from: u32, step: u32, cell: Cell, record: &[u8], now: Instant, out: &mut Out) {
+        self.time_step(step, now);
         let mut left = None;
         match self.latest.get(&from).copied() {
             Some((_, s)) if step < s => {} // an old state: where the agent was is not where it is
@@ -196,18 +211,46 @@ impl Inboxes {
         out.push((j, header(self.clock).to_vec()));
     }
 
-    /// The groups that waited INBOX_WAIT go out as they are; they then wait for the step after.
+    /// The swarm's step period from the first state of each new step (a jump of more than one step, a
+    /// rejoin or a late joiner, sets the top without a sample).
+    fn time_step(&mut self, step: u32, now: Instant) {
+        match self.top {
+            Some((top, _)) if step <= top => {}
+            Some((top, at)) if step == top + 1 => {
+                let sample = now.duration_since(at);
+                self.period = Some(self.period.map_or(sample, |p| p.mul_f64(0.8) + sample.mul_f64(0.2)));
+                self.top = Some((step, now));
+            }
+            _ => self.top = Some((step, now)),
+        }
+    }
+
+    /// How long a group waits for its last state now (INBOX_WAIT's comment): MAX_INBOX_WAIT until a period is
+    /// known (the start burst's first steps are the slowest: N = 1000 agents woken at once).
+    pub fn wait(&self) -> Duration {
+        self.period.map_or(MAX_INBOX_WAIT, |p| p.mul_f64(WAIT_PERIODS).clamp(INBOX_WAIT, MAX_INBOX_WAIT))
+    }
+
+    /// The groups that waited their longest (`wait`) go out as they are. The states still missing then come
+    /// together once they are all in (a slow neighbour: one more message, not one per state), or at a second
+    /// wait, after which the group waits for the step after (a neighbour that stopped: its latest step falls
+    /// behind and it is no longer waited for).
     pub fn due(&mut self, now: Instant, out: &mut Out) {
+        let wait = self.wait();
         let late: Vec<u32> = self
             .watchers
             .iter()
-            .filter(|(_, w)| w.since.is_some_and(|t| now.duration_since(t) >= INBOX_WAIT))
+            .filter(|(_, w)| w.since.is_some_and(|t| now.duration_since(t) >= wait))
             .map(|(&j, _)| j)
             .collect();
         for j in late {
             let w = self.watchers.get_mut(&j).expect("listed");
+            let again = w.overdue;
             flush(j, w, self.clock, out);
-            if let Some(n) = w.next {
+            if !again && w.next.is_some() {
+                w.overdue = true;
+                w.since = Some(now);
+            } else if let Some(n) = w.next {
                 self.advance(j, n + 1, out);
             }
         }
@@ -287,6 +330,7 @@ impl Inboxes {
 
 fn flush(j: u32, w: &mut Watcher, clock: Option<u64>, out: &mut Out) {
     w.since = None;
+    w.overdue = false;
     if w.count > 0 {
         w.count = 0;
         if let Some(c) = clock {
@@ -357,7 +401,7 @@ mod tests {
     }
 
     #[test]
-    fn a_late_state_goes_at_once_and_a_silent_agent_is_waited_for_once() {
+    fn a_silent_agent_is_waited_for_twice_then_no_more_and_a_late_state_goes_at_once() {
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
         step_all(&mut ib, 1..=2, t, &mut out);
@@ -370,13 +414,71 @@ mod tests {
         ib.due(t + INBOX_WAIT, &mut out);
         assert_eq!(ids(&out, 1), vec![vec![(0, 3)]]);
         out.clear();
-        // step 4 no longer waits for 2 (its latest step, 2, is behind)
-        ib.state(0, 4, (0, 0), &rec(0, 4), t, &mut out);
+        // 0 runs on (it does not hear 2): its step 4 waits with the group, which still waits for 2's step 3
+        ib.state(0, 4, (0, 0), &rec(0, 4), t + INBOX_WAIT, &mut out);
+        ib.due(t + INBOX_WAIT * 3 / 2, &mut out);
+        assert!(out.is_empty());
+        // a second wait: out it goes, and step 4 no longer waits for 2 (its latest step, 2, is behind)
+        ib.due(t + INBOX_WAIT * 2, &mut out);
         assert_eq!(ids(&out, 1), vec![vec![(0, 4)]]);
         out.clear();
+        ib.state(0, 5, (0, 0), &rec(0, 5), t + INBOX_WAIT * 2, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 5)]]);
+        out.clear();
         // 2's step-3 state, late: at once
-        ib.state(2, 3, (2, 0), &rec(2, 3), t, &mut out);
+        ib.state(2, 3, (2, 0), &rec(2, 3), t + INBOX_WAIT * 2, &mut out);
         assert_eq!(ids(&out, 1), vec![vec![(2, 3)]]);
+    }
+
+    #[test]
+    fn what_a_slow_neighbour_still_owes_comes_in_one_message_after_the_wait() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        step_all(&mut ib, 1..=2, t, &mut out);
+        out.clear();
+        ib.state(0, 3, (0, 0), &rec(0, 3), t, &mut out);
+        ib.due(t + INBOX_WAIT, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 3)]]);
+        out.clear();
+        // 2 is slow, not silent: 0's step 4 and 2's step 3 go out together once 2's is in (a fixed wait sent
+        // each alone: the group moved on to step 4, which no longer waited for 2, and 2's state came late)
+        ib.state(0, 4, (0, 0), &rec(0, 4), t + INBOX_WAIT, &mut out);
+        assert!(out.is_empty());
+        ib.state(2, 3, (2, 0), &rec(2, 3), t + INBOX_WAIT * 5 / 4, &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 4), (2, 3)]]);
+        out.clear();
+        ib.state(2, 4, (2, 0), &rec(2, 4), t + INBOX_WAIT * 3 / 2, &mut out); // the group of step 4 is complete
+        assert_eq!(ids(&out, 1), vec![vec![(2, 4)]]);
+    }
+
+    #[test]
+    fn the_wait_follows_the_swarms_step_period() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        assert_eq!(ib.wait(), MAX_INBOX_WAIT); // no period yet: the start burst
+        let ms = |m: u64| t + Duration::from_millis(m);
+        // a slow swarm: a step every 200 ms (N = 1000 on 2 cores)
+        for s in 1..=10 {
+            for (k, c) in CELLS {
+                ib.state(k, s, c, &rec(k, s), ms(200 * u64::from(s)), &mut out);
+            }
+        }
+        assert!((ib.wait().as_millis() as i64 - 300).abs() <= 40, "{:?}", ib.wait());
+        out.clear();
+        // agent 1's step-11 group: 0's state came, 2's is 150 ms away: not due at 100 ms (the fixed wait was 60)
+        ib.state(0, 11, (0, 0), &rec(0, 11), ms(2200), &mut out);
+        ib.due(ms(2300), &mut out);
+        assert!(ids(&out, 1).is_empty());
+        ib.state(2, 11, (2, 0), &rec(2, 11), ms(2350), &mut out);
+        assert_eq!(ids(&out, 1), vec![vec![(0, 11), (2, 11)]]); // one message
+                                                                // a jump (a rejoin) is no sample; a period never makes the wait longer than MAX_INBOX_WAIT
+        ib.state(2, 5_000, (2, 0), &rec(2, 5_000), ms(2400), &mut out);
+        assert!(ib.wait() >= INBOX_WAIT && ib.wait() <= MAX_INBOX_WAIT);
+        let mut slow = Inboxes::default();
+        for s in 0..20 {
+            slow.state(0, s, (0, 0), &rec(0, s), t + Duration::from_secs(u64::from(s)), &mut out);
+        }
+        assert_eq!(slow.wait(), MAX_INBOX_WAIT);
     }
 
     #[test]
