@@ -12,6 +12,8 @@ command   agent/protocol/command.py  first byte even: the whole envelope; odd: a
                                    within docs/command.md's bounds and survives encode -> decode; another
                                    secret accepts nothing; a refusal is CommandRejected with its reason
 event     agent/protocol/events.py an accepted event survives encode -> decode; else None
+imitation agent/protocol/imitation.py  first byte even: a plan, odd: a coordinator's note; an accepted one
+                                   survives encode -> decode (a note's silhouettes their size); else None
 report    agent/protocol/report.py an accepted report is within its bounds and survives a re-encode; else None
 spec      agent/protocol/spec.py   an accepted spec survives to_json -> from_json; a refusal is a one-line
                                    ValueError "agent spec: ..."
@@ -37,6 +39,7 @@ from pathlib import Path
 from agent.protocol import command as cmd_mod
 from agent.protocol import ctl as ctl_mod
 from agent.protocol import events as ev_mod
+from agent.protocol import imitation as im_mod
 from agent.protocol import report as rep_mod
 from agent.protocol import wire
 from agent.protocol.access import _PASSWORD_RE, ROLES, AuthFileError, agent_id_of, parse_users
@@ -145,6 +148,24 @@ def event(data: bytes) -> None:
     assert ev_mod.decode_event(ev_mod.encode_event(ev)) == ev, "encode -> decode changed the event"
 
 
+def imitation(data: bytes) -> None:
+    if not data:
+        return
+    if data[0] % 2 == 0:
+        plan = im_mod.decode_plan(data[1:])
+        if plan is not None:
+            assert plan.commands and plan.commands[0][0] == 0 and (plan.frame_steps or len(plan.commands) == 1)
+            assert im_mod.decode_plan(im_mod.encode_plan(plan)) == plan, "encode -> decode changed the plan"
+        return
+    note = im_mod.decode_note(data[1:])
+    if note is None:
+        return
+    again = im_mod.decode_note(im_mod.encode_note(note))
+    assert type(again) is type(note) and repr(again) == repr(note), "encode -> decode changed the note"
+    for mask in [getattr(note, "mask", None), *getattr(note, "parts", {}).values()]:
+        assert mask is None or (mask.dtype == bool and mask.size <= im_mod.MAX_PIXELS), "a silhouette out of bounds"
+
+
 def _report_json(r: rep_mod.FinalReport) -> bytes:
     d = dataclasses.asdict(r)
     d.update(v=rep_mod.VERSION, status=r.status.value, state=list(r.state))
@@ -220,4 +241,4 @@ def mcap(data: bytes) -> None:
     assert list(run.steps) == sorted(run.steps)
 
 
-TARGETS = {f.__name__: f for f in (state, ctl, command, event, report, spec, scenario, users, mcap)}
+TARGETS = {f.__name__: f for f in (state, ctl, command, event, imitation, report, spec, scenario, users, mcap)}

@@ -43,6 +43,14 @@ def event() -> list[bytes]:
     return [bytes.fromhex(v["payload_hex"]) for v in _json("events.json")]
 
 
+def imitation() -> list[bytes]:
+    """A plan behind an even first byte, a coordinator's note behind an odd one (python_targets.imitation)."""
+    cases = _json("imitation.json")
+    return [b"\0" + bytes.fromhex(v["payload_hex"]) for v in cases["plans"] if len(v["payload_hex"]) < 4000] + [
+        b"\1" + bytes.fromhex(v["payload_hex"]) for v in cases["notes"] if len(v["payload_hex"]) < 4000
+    ]
+
+
 def report() -> list[bytes]:
     state = [1.5, -2.0, 0.25, 0.0, 998.0, 3.0, 0.1, -0.2, 0.3, 0.0]
     base = {
@@ -182,6 +190,7 @@ PYTHON = {
     "ctl": ctl,
     "command": command,
     "event": event,
+    "imitation": imitation,
     "report": report,
     "spec": spec,
     "scenario": scenario,

@@ -25,6 +25,7 @@ VERSION = native.IMITATION_VERSION
 MAX_BYTES = native.IMITATION_MAX_BYTES
 MAX_COMMANDS = native.IMITATION_MAX_COMMANDS
 MAX_TEXT = native.IMITATION_MAX_TEXT
+MAX_PIXELS = native.IMITATION_MAX_PIXELS  # of one silhouette
 
 
 def plan_key(run: str) -> str:
