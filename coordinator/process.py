@@ -205,7 +205,8 @@ def _camera(args, secret: bytes) -> int:
         with _command_channel(args) as (session, pub, stop):
             clock = SwarmClock(args.run)  # a video file is held until the swarm steps (its first clock)
             session.declare_subscriber(keys.ctl_key(args.run, "clock"), clock.on_sample)
-            notes = session.declare_publisher(note_key(args.run))
+            # each note once, none dropped on a busy link (the first observation is what the launcher waits for)
+            notes = session.declare_publisher(note_key(args.run), congestion_control=zenoh.CongestionControl.BLOCK)
             run_camera(
                 args.camera,
                 params,
