@@ -29,6 +29,7 @@ import zenoh
 
 from agent.protocol import keys
 from agent.protocol.access import AGENT_CAPACITY, AuthFileError, RunKey, acl_config, read_users_file, write_users_file
+from agent.protocol.imitation import note_key, plan_key
 from agent.protocol.session import client_config
 from agent.sph.particle import X, Y
 from agent.sph.reference import PerParticleDriver
@@ -425,6 +426,8 @@ RIGHTS = {
         ("put", keys.ctl_key(RUN, "stop"), False),
         ("put", keys.command_key(RUN), False),
         ("put", keys.alive_key(RUN, 5), False),
+        ("put", plan_key(RUN), False),
+        ("put", note_key(RUN), False),
         ("token", keys.alive_key(RUN, 4), False),
         ("token", f"fluidswarm/{RUN}/recorder", False),
         ("delete", keys.event_key(RUN, 5), False),
@@ -432,6 +435,8 @@ RIGHTS = {
     "coordinator": [
         ("put", keys.command_key(RUN), True),
         ("token", f"fluidswarm/{RUN}/coordinator", True),
+        ("put", note_key(RUN), True),
+        ("put", plan_key(RUN), False),  # the plan is the launcher's
         ("put", keys.ctl_key(RUN, "stop"), False),
         ("put", keys.state_key(RUN, 5), False),
         ("token", f"fluidswarm/{RUN}/recorder", False),
@@ -441,10 +446,13 @@ RIGHTS = {
         ("token", f"fluidswarm/{RUN}/recorder", True),
         ("put", keys.command_key(RUN), False),
         ("put", keys.event_key(RUN, 5), False),
+        ("put", note_key(RUN), False),
         ("token", keys.alive_key(RUN, 4), False),
     ],
     "launcher": [
         ("put", keys.ctl_key(RUN, "stop"), True),
+        ("put", plan_key(RUN), True),
+        ("put", note_key(RUN), False),  # the notes are the coordinator's
         ("put", keys.cell_key(RUN, 1, -2), False),  # only the routers' relays put on cells
         ("put", keys.state_key(RUN, 5), False),
         ("put", keys.cell_key(RUN, 1, -2) + "/x", False),

@@ -25,7 +25,9 @@ _EVERYTHING = ["**"]
 _ADMIN = ["@/**"]  # the router's admin space
 # batch: the routers' relays' batches of states for the recorder (agent/native/src/relay.rs), no client's to put;
 # inbox: the relay's one message per step to an agent, no client's to put (relay/inboxes.rs); watch: the cells an
-# agent names to the relay, its own key only (watch.rs)
+# agent names to the relay, its own key only (watch.rs); imitation/plan: the launcher's plan for its coordinator,
+# imitation/note: the coordinator's notes for its launcher and recorder (agent/protocol/imitation.py), each the
+# one role's to put
 _KINDS = (
     "state",
     "event",
@@ -41,8 +43,11 @@ _KINDS = (
     "batch",
     "inbox",
     "watch",
+    "imitation/plan",
+    "imitation/note",
 )
-_LEAVES = ("command", "recorder", "coordinator", "plan")  # one key per run, no chunk after the kind
+# one key per run, no chunk after the kind
+_LEAVES = ("command", "recorder", "coordinator", "plan", "imitation/plan", "imitation/note")
 
 
 def _deny(rule_id: str, messages: list[str], key_exprs: list[str]) -> dict:
@@ -98,16 +103,17 @@ def acl_config(users: list[str]) -> dict:
         _deny("agent-query", ["query"], [f"{_ANY_RUN}/relay/**", f"{_ANY_RUN}/plan"]),
         _deny("agent-put", ["put"], _kinds_but("state", "event", "final", "watch") + [f"{_ANY_RUN}/state/*/*/**"]),
         _deny("agent-token", ["liveliness_token"], _kinds_but("alive")),
-        # launcher (a client of its router): ctl and its host's share clock (pace) only; the relay that puts on
-        # the cell keys is inside the routers (agent/native/src/relay.rs), so no state key at all, an agent's or
-        # a cell's; the main host of a run with workers serves its plan (a queryable on `plan`, the one reply)
+        # launcher (a client of its router): ctl, its host's share clock (pace) and an imitation's plan only; the
+        # relay that puts on the cell keys is inside the routers (agent/native/src/relay.rs), so no state key at
+        # all, an agent's or a cell's; the main host of a run with workers serves its plan (a queryable on
+        # `plan`, the one reply)
         _deny("launcher-never", ["delete"], _EVERYTHING),
         _deny("launcher-serve", ["reply", "declare_queryable"], _kinds_but("plan") + _ADMIN),
-        _deny("launcher-put", ["put"], _kinds_but("ctl", "pace")),
+        _deny("launcher-put", ["put"], _kinds_but("ctl", "pace", "imitation/plan")),
         _deny("launcher-token", ["liveliness_token"], _EVERYTHING),
         # coordinator
         _deny("coordinator-never", ["query", "liveliness_query", "declare_liveliness_subscriber"], _EVERYTHING),
-        _deny("coordinator-put", ["put"], _kinds_but("command")),
+        _deny("coordinator-put", ["put"], _kinds_but("command", "imitation/note")),
         _deny("coordinator-token", ["liveliness_token"], _kinds_but("coordinator")),
         # recorder
         _deny("recorder-never", ["put", "query", "liveliness_query"], _EVERYTHING),
