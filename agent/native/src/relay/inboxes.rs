@@ -74,8 +74,8 @@ pub fn parse(data: &[u8]) -> Option<(Option<u64>, &[u8])> {
 #[derive(Default)]
 struct Watcher {
     cells: Vec<Cell>,
+    /// the pending group's records, concatenated (whole STATE_SIZE records)
     buf: Vec<u8>,
-    count: usize,
     /// when the pending group's first state came (or, once overdue, when it went out at its wait)
     since: Option<Instant>,
     /// the group of step `next` went out once at its wait, incomplete (`due`)
@@ -91,6 +91,14 @@ struct Watcher {
     /// the clock it has: the last one its messages carried, else 0 (ctl/start paces an agent from clock 0,
     /// agent/receive.rs)
     clock_sent: u64,
+}
+
+impl Watcher {
+    /// The pending group waits for step `next`: `got` counts the senders already given it.
+    fn wait_for(&mut self, next: u32) {
+        self.next = Some(next);
+        self.got = self.given.values().filter(|&&s| s >= next).count();
+    }
 }
 
 /// The relay's inboxes of one run.
@@ -259,14 +267,13 @@ impl Inboxes {
     fn give(&mut self, j: u32, from: u32, step: u32, record: &[u8], now: Instant, out: &mut Out) {
         let w = self.watchers.get_mut(&j).expect("a watcher");
         w.buf.extend_from_slice(record);
-        w.count += 1;
         w.since.get_or_insert(now);
         let before = w.given.get(&from).copied();
         if before.is_none_or(|b| step > b) {
             w.given.insert(from, step);
         }
         let next = *w.next.get_or_insert(step);
-        if step < next || w.count >= MAX_RECORDS {
+        if step < next || w.buf.len() >= MAX_RECORDS * crate::wire::STATE_SIZE {
             flush(j, w, self.clock, out); // late (or a republication): the agent waits for it now
             return;
         }
@@ -296,16 +303,13 @@ impl Inboxes {
                 w.got = 0;
                 return;
             }
-            w.next = Some(next + 1);
-            w.got = w.given.values().filter(|&&s| s > next).count();
+            w.wait_for(next + 1);
         }
     }
 
     /// Agent `j`'s group now waits for step `next`; it may be complete already (a neighbour ran ahead).
     fn advance(&mut self, j: u32, next: u32, out: &mut Out) {
-        let w = self.watchers.get_mut(&j).expect("a watcher");
-        w.next = Some(next);
-        w.got = w.given.values().filter(|&&s| s >= next).count();
+        self.watchers.get_mut(&j).expect("a watcher").wait_for(next);
         // who is waited for changes with the step (an agent left behind no longer is): looked at anew
         self.look(j, out);
     }
@@ -331,8 +335,7 @@ impl Inboxes {
 fn flush(j: u32, w: &mut Watcher, clock: Option<u64>, out: &mut Out) {
     w.since = None;
     w.overdue = false;
-    if w.count > 0 {
-        w.count = 0;
+    if !w.buf.is_empty() {
         if let Some(c) = clock {
             w.clock_sent = c;
         }
