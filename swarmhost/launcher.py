@@ -120,7 +120,10 @@ class Launcher:
         self.endpoint, self.agent_endpoint = self.router.endpoint, self.router.agent_endpoint
         self.access, self.session = self.router.access, self.router.session
         self.swarm = Swarm(self.run, self.endpoint, self.session)
-        self.pacer = Pacer(self.swarm, agent_timeout, self.access.state_key_ids)
+        # An embedded router's batches carry every state of the run: the pacer follows those
+        self.pacer = Pacer(
+            self.swarm, agent_timeout, self.access.state_key_ids, batches=isinstance(self.router.relay, CompiledRelay)
+        )
         self.pacer.on_host_lost = self._log_host_lost
         # What this launcher learns that the MCAP should hold too (a lost host): events.jsonl here, which its
         # recorder follows (--launcher-events, recording/coordinator_events.py); made with the recorder.
@@ -143,8 +146,6 @@ class Launcher:
         # message (agent/native/src/relay/inboxes.rs); a host's router (multi-host) relays on the cells only.
         # FLUIDSWARM_INBOX=0 keeps the cell subscriptions (the side-by-side measurements, an older agent).
         self.inboxes = isinstance(self.relay, CompiledRelay) and os.environ.get("FLUIDSWARM_INBOX", "1") != "0"
-        # Its batches carry every state of the run: the pacer follows those, not each agent's messages
-        self.pacer.batches = isinstance(self.relay, CompiledRelay)
         self.recorder = RecorderProcess(
             self.run, self.endpoint, self.session, self.access.env_for("recorder"), quiet, self.access.state_key_ids
         )

@@ -47,13 +47,15 @@ class Pacer:
     """`swarm` (swarmhost/supervisor.py Swarm): its alive agents and lost ones; `agent_timeout` [s]: an agent
     silent this long (frozen) does not hold the clock back."""
 
-    def __init__(self, swarm, agent_timeout: float, id_keys: bool, clock_period: float = CLOCK_PERIOD):
+    def __init__(
+        self, swarm, agent_timeout: float, id_keys: bool, batches: bool = False, clock_period: float = CLOCK_PERIOD
+    ):
         self.swarm, self.agent_timeout, self.clock_period = swarm, agent_timeout, clock_period
         self.id_keys = id_keys  # states on the agents' id keys (per-process rights), else on cell keys
-        # Follow the embedded router's relay's batches (docs/protocol.md "State batches": one message per
-        # lockstep step or BATCH_WAIT) instead of every agent's state message: set by the launcher when its own
-        # router relays every state of the run (issue 49: each process woken about once per step, not N times)
-        self.batches = False
+        # `batches`: follow the embedded router's relay's batches (docs/protocol.md "State batches": one message
+        # per lockstep step or BATCH_WAIT) instead of every agent's state message, when the launcher's own router
+        # relays every state of the run (issue 49: each process woken about once per step, not N times)
+        self.batches = batches
         self.session, self.run = swarm.session, swarm.run
         self.core = PaceCore(self.run, agent_timeout)
         self._states: list[zenoh.Subscriber] | None = None  # the state subscribers, then the share clocks'
