@@ -5,7 +5,7 @@ background, its silhouette and the classifier's class; a hand moves, so no stati
 "person": as below. "auto": the first AUTO_FRAMES observed frames decide (a hand in most of them: hand).
 
 Frames are taken as they come (perception/stream.py, at most `--fps` per second). Each observed frame is
-read with the last `window` observed frames as a static-camera clip (coordinator/control/observe.py: the person's
+read with the last `window` observed frames as a static-camera clip (perception/segmentation.py: the person's
 silhouette, arms and recognised pose), or alone (perception/selfie.py) when they are no static camera's clip; the
 person's box is tracked with the Kalman filter of
 perception/tracking.py. A new command (next sequence number) is issued only when the recognised gesture
@@ -32,7 +32,6 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -40,13 +39,11 @@ import numpy as np
 from agent.protocol.imitation import Commanded, End, Missing, Note, Seen, Subject
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import build_command, controller_of, transform_for
-from coordinator.control.observe import Observation, body_observation, observe
-from perception.segmentation import MAX_MOVING_AWAY, SegmentationError, moving_away
+from coordinator.control.observe import Observation, body_observation
+from perception.segmentation import MAX_MOVING_AWAY, SegmentationError, moving_away, person_regions
 from perception.stream import FrameStream, StreamEnded, StreamError
 from perception.tracking import BoxKalman, box_to_centre
 
-# observe() reads a video's frames as a static-camera clip of a person (its body branch); a camera is one.
-CLIP = Path("camera.mp4")
 PARTS = ("torso", "left_arm", "right_arm")
 SUBJECTS = ("hand", "person", "auto")
 AUTO_FRAMES = 3  # observed frames that decide --subject auto
@@ -90,13 +87,16 @@ class LiveObserver:
         self.frames.append(frame)
         if len(self.frames) < 3:
             return None
+        frames = list(self.frames)
         try:
-            obs = observe(CLIP, list(self.frames))[-1]
+            # the background comes from the whole window, the silhouette only for the newest frame (the one
+            # commanded): GrabCut on every frame of the window cost 6 times as much (1.4 s each at 640x480)
+            obs = body_observation(frame, person_regions(frames, only=[len(frames) - 1])[0], len(frames) - 1)
         except SegmentationError as exc:
             return self.one_frame(frame, str(exc))
         # background subtraction takes what changes for the person: where much changes away from the
         # person it found, the camera or the room moves and its silhouette is not to be trusted
-        away = moving_away(list(self.frames), obs.mask)
+        away = moving_away(frames, obs.mask)
         if away > MAX_MOVING_AWAY:
             return self.one_frame(
                 frame,
