@@ -5,7 +5,6 @@ from one frame; real shared photographs and Weizmann frames pasted into 640 x 48
 
 from __future__ import annotations
 
-import itertools
 import json
 from pathlib import Path
 
@@ -234,21 +233,23 @@ def test_the_landmarks_classifier_names_held_out_hands(shared_hands):
 
 def test_a_persons_arm_pose_is_read_from_one_frame_in_front_of_clutter(weizmann):
     """The labelled wave2 frames (perception/data/weizmann_wave2_labels.json: both arms sideways, or both
-    up), each person cut out by the clip's own reading and pasted into three rooms; `person_in_frame` reads
-    silhouette and arms from that one frame, coordinator's body_label names the pose (the clip's reading
-    on the plain wall: 56 of 59)."""
+    up), each person cut out by the clip's own reading and pasted into one of three rooms in turn;
+    `person_in_frame` reads silhouette and arms from that one frame, coordinator's body_label names the pose
+    (the clip's reading on the plain wall: 56 of 59)."""
     from coordinator.control.observe import body_label
 
     labels = json.loads((Path(cm.__file__).parent / "data" / "weizmann_wave2_labels.json").read_text())["frames"]
     want = {"sideways": "left_side-right_side", "up": "left_up-right_up"}
     rng = np.random.default_rng(3)
     right = total = 0
+    rooms = ("stripes", "skin", "wood")
     for person, poses in labels.items():
         frames = load_frames(weizmann / "wave2" / f"{person}.png")
         wanted = sorted(i for indices in poses.values() for i in indices)
         regions = dict(zip(wanted, person_regions(frames, only=wanted), strict=True))
         for pose, indices in poses.items():
-            for i, family in itertools.product(indices, ("stripes", "skin", "wood")):
+            for i in indices:
+                family = rooms[total % len(rooms)]  # each frame in one room, the rooms in turn
                 frame, _ = cm.paste_person(cm.background_maker(family)(rng), frames[i], regions[i].silhouette, rng)
                 total += 1
                 try:
@@ -264,7 +265,8 @@ def test_a_persons_arm_pose_is_read_from_one_frame_in_front_of_clutter(weizmann)
                 head_row = float(np.nonzero(r.head)[0].mean()) if r.head is not None else None
                 right += body_label(parts, head_row) == want[pose]
     print(f"poses read right {right} of {total}")
-    assert total == 3 * 59 and right >= 0.8 * total, (right, total)  # measured 151 of 177
+    # measured 48 of 59 (each frame in all three rooms, 3 x the time: 151 of 177)
+    assert total == 59 and right >= 0.8 * total, (right, total)
 
 
 def test_perceive_reads_a_cluttered_photo_with_the_learned_reading(shared_hands, tmp_path):
