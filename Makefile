@@ -94,9 +94,13 @@ crate-tests: | $(ROUTER_TRAFFIC_BIN)
 check: lint
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not swarm" tests
 
-# Every small scenario end to end (make test runs one of each kind, tests/test_scenarios.py CORE)
+# Every small scenario end to end (make test runs one of each kind, tests/test_scenarios.py CORE): as make test
+# does, the untimed ones two at a time, then the timed ones (tests/conftest.py ALONE) one after the other.
 scenarios: install
-	$(BIN)/python -m pytest -q -m every_scenario --durations=10 tests/test_scenarios.py
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "every_scenario and not alone" --durations=10 \
+		tests/test_scenarios.py; shared=$$?; \
+	$(BIN)/python -m pytest -q -m "every_scenario and alone" --durations=10 tests/test_scenarios.py; alone=$$?; \
+	test $$shared -eq 0 -a $$alone -eq 0
 
 # The network-fault tests (tests/test_netfaults.py) need nftables; CI runs as root on a fresh machine.
 netfault-tools:

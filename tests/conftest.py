@@ -37,9 +37,11 @@ _SWARM_PROGRAMS = (Path(sys.executable).name, "python", "python3", "fluidswarm-a
 # Swarm tests that run alone (marker `alone`): `make test` runs every other test two at a time (pytest-xdist,
 # -n 2), then these one after the other. Each here measures wall seconds or CPU (stalls, recovery and detection
 # times, the realtime factor, wake-ups, a bench), injects a fault whose effect depends on timing (a freeze, a
-# kill, a partition, a lost router or recorder, a late joiner), or shares the machine itself (test_scenarios.py
-# runs its untimed scenarios three at a time, a module fixture that xdist would start once per worker). A key is
-# a test file, a test function (all its parameters) or one parametrized test; the reason says why.
+# kill, a partition, a lost router or recorder, a late joiner). A key is a test file, a test function (all its
+# parameters) or one parametrized test; the reason says why.
+# test_scenarios.py's timed scenario runs (its timed(); the untimed ones count steps and share the machine)
+_SCENARIO = "tests/test_scenarios.py::test_scenario_runs_end_to_end_and_passes"
+_ASYNC_FAILURES = "async agents keep their own clocks while failures are injected"
 ALONE: dict[str, str] = {
     "tests/test_agents.py::test_launch_with_default_options_every_agent_finishes_without_republishing_storms": (
         "counts republished states, which a late neighbour causes"
@@ -69,7 +71,12 @@ ALONE: dict[str, str] = {
     "tests/test_relay.py::test_the_compiled_router_says_why_it_cannot_start_in_one_line_and_keeps_no_configuration": (
         "no router's configuration in the shared temporary folder, where another test's router keeps one"
     ),
-    "tests/test_scenarios.py": "stall criteria, async failures; its untimed runs share the machine three at a time",
+    _SCENARIO + "[branching_failures]": "the longest stall",
+    _SCENARIO + "[branching_failures_async]": _ASYNC_FAILURES,
+    _SCENARIO + "[hand_failures_freeze_drop]": "the longest stall",
+    _SCENARIO + "[hand_failures_freeze_drop_async]": _ASYNC_FAILURES,
+    _SCENARIO + "[hand_failures_kill20_async]": _ASYNC_FAILURES,
+    "tests/test_scenarios.py::test_run_options_inject_failures_in_async_mode": _ASYNC_FAILURES,
     "tests/test_split_run.py::test_the_launcher_that_finishes_first_stops_none_of_the_other_hosts_agents": (
         "two launchers' ends, in time"
     ),

@@ -10,8 +10,6 @@ import json
 import signal
 import subprocess
 import sys
-from concurrent import futures
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -19,6 +17,7 @@ import pytest
 from fluidswarm.cli import main
 from fluidswarm.recording.reader import load_run
 from fluidswarm.scenario import load_scenario
+from tests.conftest import ALONE
 
 REPO = Path(__file__).resolve().parent.parent
 SCENARIOS = sorted((REPO / "scenarios").glob("*.toml"))
@@ -172,62 +171,35 @@ CORE = {
     "branching_stiffness",
     "viscosity_drag",
 }
-SCENARIO_PARAMS = [
-    pytest.param(p, id=p.stem, marks=() if p.stem in CORE else pytest.mark.every_scenario) for p in SMALL
-]
-# Scenario runs that may share the machine run this many at a time: a lockstep swarm of 40 agents keeps about
-# 1.1 of the 2 cores busy (its agents wait on each other's messages), so three side by side take ~85 s where
-# one after the other took ~135 s, with the same figures (they count steps, not seconds).
-SHARED_RUNS = 3
 
 
 def timed(sc) -> bool:
     """A run that must have the cores to itself: its criteria measure wall time (the longest stall), or its
-    agents keep their own clocks (async) while failures are injected, so a busy machine would change it."""
+    agents keep their own clocks (async) while failures are injected, so a busy machine would change it.
+    tests/conftest.py ALONE lists exactly these (test_the_timed_scenarios_are_the_ones_that_run_alone); the
+    others count steps, not seconds, and share the machine with the other swarm tests, two at a time."""
     return sc.passing.max_stall_seconds > 0 or (sc.sync == "async" and bool(sc.failures))
 
 
-class SharedRuns:
-    """`fluidswarm run SCENARIO --json` of the selected scenarios that are not `timed`, SHARED_RUNS at a
-    time, all started when the first is asked for; `alone()` waits until every one has finished."""
-
-    def __init__(self, paths: list[Path], out: Path):
-        self._pool = ThreadPoolExecutor(SHARED_RUNS)
-        self._runs = {p: self._pool.submit(run_record, ["run", str(p), "--out", str(out / p.stem)]) for p in paths}
-
-    def get(self, path: Path):
-        return self._runs[path].result()
-
-    def alone(self) -> None:
-        futures.wait(self._runs.values())
-
-    def close(self) -> None:
-        self._pool.shutdown(wait=True, cancel_futures=True)
+SCENARIO_PARAMS = [
+    pytest.param(p, id=p.stem, marks=() if p.stem in CORE else pytest.mark.every_scenario) for p in SMALL
+]
 
 
-@pytest.fixture(scope="module")
-def shared_runs(request, tmp_path_factory):
-    paths = [
-        item.callspec.params["path"]
-        for item in request.session.items
-        if item.module is request.module
-        and item.originalname == "test_scenario_runs_end_to_end_and_passes"
-        and not timed(load_scenario(item.callspec.params["path"]))
-    ]  # only the selected tests' runs
-    runs = SharedRuns(paths, tmp_path_factory.mktemp("scenarios"))
-    yield runs
-    runs.close()
+def test_the_timed_scenarios_are_the_ones_that_run_alone():
+    """A timed scenario beside another test would measure the other test's load: each is in ALONE, and only
+    those (an untimed one there would cost make test its run's wall seconds again)."""
+    key = "tests/test_scenarios.py::test_scenario_runs_end_to_end_and_passes"
+    alone = {k.partition("[")[2].rstrip("]") for k in ALONE if k.startswith(key + "[")}
+    assert key not in ALONE and "tests/test_scenarios.py" not in ALONE
+    assert alone == {p.stem for p in SMALL if timed(load_scenario(p))}
 
 
 @pytest.mark.parametrize("path", SCENARIO_PARAMS)
 @pytest.mark.swarm
-def test_scenario_runs_end_to_end_and_passes(path, tmp_path, shared_runs):
+def test_scenario_runs_end_to_end_and_passes(path, tmp_path):
     sc = load_scenario(path)
-    if timed(sc):
-        shared_runs.alone()
-        r, f = run_record(["run", str(path), "--out", str(tmp_path / sc.name)])
-    else:
-        r, f = shared_runs.get(path)
+    r, f = run_record(["run", str(path), "--out", str(tmp_path / sc.name)])
     print(r.stdout)
     assert r.returncode == 0 and f["passed"], f"{path.name}: rc {r.returncode}\n{r.stdout}\n{r.stderr[-3000:]}"
     assert Path(f["mcap"]).stat().st_size > 0
@@ -254,10 +226,9 @@ def test_scenario_runs_end_to_end_and_passes(path, tmp_path, shared_runs):
 
 
 @pytest.mark.swarm
-def test_run_options_inject_failures_in_async_mode(tmp_path, shared_runs):
+def test_run_options_inject_failures_in_async_mode(tmp_path):
     """Failures given as `run` options on asynchronous agents: SIGKILL and late joiners; the MCAP stays
     complete (a late joiner is expected from its first state on). Async with failures: run alone."""
-    shared_runs.alone()
     r, f = run_record(
         [
             "run",
