@@ -7,17 +7,23 @@ Foxglove). Matplotlib's object API with the Agg canvas (no pyplot state); images
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.image import AxesImage
-from matplotlib.patches import Circle, Ellipse
 from PIL import Image
 
 from fluidswarm.recording import schemas as sc
-from fluidswarm.recording.analysis import Series
 from fluidswarm.recording.reader import Frame, Recording, Scene, Target
+
+# matplotlib (~0.45 s of CPU to import) and the analysis (scipy.spatial, ~0.3 s) are imported where a picture is
+# drawn, not with the module: every `fluidswarm` command imports this one (imitate, simulate, replay register
+# their subcommands), and most never draw.
+if TYPE_CHECKING:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.image import AxesImage
+
+    from fluidswarm.recording.analysis import Series
 
 FORMATION_SIZE = (700, 500)  # width, height in pixels
 SNAPSHOT_SIZE = (640, 640)
@@ -46,6 +52,9 @@ def domain_extent(run: Recording, margin: float = 0.05) -> tuple[float, float, f
 
 
 def _figure(size: tuple[int, int]) -> tuple[Figure, FigureCanvasAgg]:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI)
     return fig, FigureCanvasAgg(fig)
 
@@ -144,6 +153,8 @@ class FormationRenderer:
             )
 
     def _set_scene(self, scene: Scene | None) -> None:
+        from matplotlib.patches import Circle, Ellipse
+
         for p in self._patches:
             p.remove()
         self._patches = []

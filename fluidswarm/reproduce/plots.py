@@ -4,20 +4,27 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from fluidswarm.recording.render import class_colours
+
+
+def _pyplot():
+    """matplotlib's pyplot, headless: imported on the first figure, not with the module (the CLI imports this
+    module for `reproduce`'s parser; matplotlib costs every other command ~0.45 s of CPU)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def save(fig, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
-    plt.close(fig)
+    _pyplot().close(fig)
     return path
 
 
@@ -25,7 +32,7 @@ def time_series(
     path: Path, panels: list[tuple[str, float, dict[str, np.ndarray], dict[str, float]]], ylabel: str
 ) -> Path:
     """One panel per (title, dt, {label: series}, {label: thesis level}); thesis levels as dashed lines."""
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.6), squeeze=False)
+    fig, axes = _pyplot().subplots(1, len(panels), figsize=(5.2 * len(panels), 3.6), squeeze=False)
     for ax, (title, dt, curves, levels) in zip(axes[0], panels):
         for k, (label, y) in enumerate(curves.items()):
             ax.plot(np.arange(len(y)) * dt, y, color=class_colours([k])[0], label=label, lw=1.3)
@@ -42,7 +49,7 @@ def formations(path: Path, panels: list[tuple[str, np.ndarray, np.ndarray, tuple
     """Final particle positions, one panel per (title, positions (N, 2), classes, class names)."""
     cols = min(len(panels), 4)
     rows = (len(panels) + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
+    fig, axes = _pyplot().subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
     for ax in axes.flat[len(panels) :]:
         ax.axis("off")
     for ax, (title, pos, classes, names) in zip(axes.flat, panels):
@@ -63,7 +70,7 @@ def bars(path: Path, title: str, groups: dict[str, dict[str, float]], ylabel: st
     labels = list(groups)
     series = list(dict.fromkeys(s for g in groups.values() for s in g))
     width = 0.8 / max(len(series), 1)
-    fig, ax = plt.subplots(figsize=(max(5.0, 1.2 * len(labels) * max(1, len(series)) * 0.6), 3.6))
+    fig, ax = _pyplot().subplots(figsize=(max(5.0, 1.2 * len(labels) * max(1, len(series)) * 0.6), 3.6))
     x = np.arange(len(labels))
     for k, s in enumerate(series):
         vals = [groups[g].get(s, np.nan) for g in labels]
@@ -86,7 +93,7 @@ def lines(
     markers: dict[str, tuple] | None = None,
 ) -> Path:
     """Curves over a shared x; `markers` {label: (xs, ys)} drawn as points (e.g. the thesis' table)."""
-    fig, ax = plt.subplots(figsize=(5.6, 3.6))
+    fig, ax = _pyplot().subplots(figsize=(5.6, 3.6))
     for k, (label, y) in enumerate(curves.items()):
         ax.plot(x, y, "o-", color=class_colours([k])[0], label=label, lw=1.2, ms=3)
     for k, (label, (xs, ys)) in enumerate((markers or {}).items()):
