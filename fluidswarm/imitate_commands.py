@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from agent.protocol.errors import UserError
+from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
 from fluidswarm.realtime_option import add_realtime_argument
@@ -59,8 +60,8 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--controller",
-        default="fill",
-        choices=["fill", "region", "pca", "ann"],
+        default=DEFAULT_CONTROLLER,
+        choices=CONTROLLERS,
         help="fill (default): the swarm fills the silhouette like a liquid; region: waypoints at k-means "
         "regions (thesis ch. 6); pca: the recognised class' template; ann: skeleton -> body force",
     )

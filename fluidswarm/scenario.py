@@ -20,6 +20,7 @@ from agent.sph.params import SPHParams
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
+from coordinator.control.imitation_setup import DEFAULT_CONTROLLER
 from fluidswarm.run_config import AGENTS, Sync, agents_problem, check, positive_problem
 
 CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
@@ -114,7 +115,7 @@ class Scenario:
     input: str = ""  # image, folder of frames or video; relative to the scenario file, its folder's parent or cwd
     frame: int = -1  # which frame of a clip/folder to imitate (-1: the first; see frame_steps)
     frame_steps: int = 0  # > 0: a gesture sequence, every frame shown for this many steps (thesis ch. 5)
-    controller: str = "fill"
+    controller: str = DEFAULT_CONTROLLER
     agents: int = AGENTS
     steps: int = 0  # 0: the experiment's default
     dt: float = 0.0  # 0: the experiment's default
@@ -245,7 +246,7 @@ def _scenario(raw: dict, path: Path) -> Scenario:
             kw[key] = _typed(file, key, raw[key], kind)
     if kw.get("experiment", Experiment.IMITATE) not in EXPERIMENTS:
         raise UserError(f"{file}: key 'experiment': must be one of {EXPERIMENTS}, got {kw['experiment']!r}")
-    if kw.get("controller", "fill") not in CONTROLLERS:
+    if kw.get("controller", DEFAULT_CONTROLLER) not in CONTROLLERS:
         raise UserError(f"{file}: key 'controller': must be one of {CONTROLLERS}, got {kw['controller']!r}")
     if kw.get("sync", SyncMode.LOCKSTEP) not in SYNC_MODES:
         raise UserError(f"{file}: key 'sync': must be one of {SYNC_MODES}, got {kw['sync']!r}")

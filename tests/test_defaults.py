@@ -58,7 +58,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # (what, value) -> the one module that writes it as a literal (None: no Python module does, the crate declares it
 # and agent/protocol/spec.py reads it from there). `what` is a parameter, field, keyword, option or constant
 # named so (`agents`, `n_agents`, `--agents`, `AGENTS`, `LAUNCH_AGENTS`, ...).
-DECLARED: dict[tuple[str, float], str | None] = {
+DECLARED: dict[tuple[str, float | str], str | None] = {
     ("agents", 60): "fluidswarm/run_config.py",  # an imitation's swarm
     ("agents", 16): "fluidswarm/run_config.py",  # launch's
     ("agents", 64): "fluidswarm/run_config.py",  # verify's
@@ -68,6 +68,7 @@ DECLARED: dict[tuple[str, float], str | None] = {
     ("max_age", 1.0): None,  # an async agent's max_age: spec.rs DEFAULT_MAX_AGE
     ("fps", 5.0): "perception/stream.py",  # a camera's pace (StreamParams)
     ("stall_seconds", 5.0): "perception/stream.py",
+    ("controller", "fill"): None,  # an imitation's controller: imitation_setup.py DEFAULT_CONTROLLER (an enum's)
 }
 ALIASES = {"n_agents": "agents", "async_rate": "rate", "async_max_age": "max_age"}
 
@@ -82,13 +83,18 @@ def _what(name: str) -> str | None:
     return None
 
 
-def _number(node: ast.expr) -> float | None:
-    if isinstance(node, ast.Constant) and isinstance(node.value, int | float) and not isinstance(node.value, bool):
+def _number(node: ast.expr) -> float | str | None:
+    """A number or string literal (a watched default's value), else None."""
+    if (
+        isinstance(node, ast.Constant)
+        and isinstance(node.value, int | float | str)
+        and not isinstance(node.value, bool)
+    ):
         return node.value
     return None
 
 
-def literal_defaults(source: str) -> list[tuple[str, float, int]]:
+def literal_defaults(source: str) -> list[tuple[str, float | str, int]]:
     """(what, value, line) of each watched name given a number literal in `source`: a parameter's default, a
     (dataclass) field or constant, a keyword argument, an argparse option's `default=`."""
     found = []
@@ -123,12 +129,18 @@ def literal_defaults(source: str) -> list[tuple[str, float, int]]:
 
 def test_the_scan_finds_a_default_written_again():
     again = "def imitate(agents: int = 60, beta=2.0):\n    p.add_argument('--max-age', type=float, default=1.0)\n"
-    assert sorted(literal_defaults(again)) == [("agents", 60, 1), ("beta", 2.0, 1), ("max_age", 1.0, 2)]
+    again += "p.add_argument('--controller', default='fill')\n"
+    assert sorted(literal_defaults(again), key=str) == [
+        ("agents", 60, 1),
+        ("beta", 2.0, 1),
+        ("controller", "fill", 3),
+        ("max_age", 1.0, 2),
+    ]
     assert literal_defaults("def f(agents=AGENTS, steps=60):\n    g(beta=20.0)\n") == []
 
 
 def test_each_default_is_written_once_in_its_module():
-    where: dict[tuple[str, float], list[str]] = {key: [] for key in DECLARED}
+    where: dict[tuple[str, float | str], list[str]] = {key: [] for key in DECLARED}
     for package in PACKAGES:
         for path in sorted((ROOT / package).rglob("*.py")):
             for what, value, line in literal_defaults(path.read_text()):
