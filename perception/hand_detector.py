@@ -17,6 +17,8 @@ from crop to crop. On 315 composites of bench-perception's generator (seeds 7, 1
 benchmark's): 45 disagreements, 17 steady, 16 of those the right class; detection 0.733 -> 0.787, accuracy
 (ten classes) 0.952 -> 0.952, no hand in any of the 315 hand-free frames; on 210 more (seeds 17, held-out 19)
 0.738 -> 0.776, 0.961 -> 0.957. The rereadings cost three landmark passes (~4 ms each), on disagreements only.
+A hand no palm view holds, found by the landmark model alone (landmarks.bottom_boxes), has no palm score to
+vouch for it: its class counts only when steady, even where the two classifiers agree.
 What the rest of the pipeline consumes is unchanged: `Hand.mask` is the silhouette in the frame's pixels.
 """
 
@@ -108,10 +110,13 @@ def learned_hand(
     label, conf = classifier.predict_features(x)
     poses = poses or poses_for(classifier)
     pose, votes = poses.predict(lm.points)
-    if pose == str(label[0]):
+    palm = lm.palm_score > 0.0  # else found by the landmark model alone (landmarks.bottom_boxes)
+    if pose == str(label[0]) and palm:
         return LearnedHand(mask, str(label[0]), float(conf[0]), distance)
     if votes >= 1.0 and steady_pose(frame_bgr, lm, poses, pose):
         return LearnedHand(mask, pose, votes, distance)
+    if pose == str(label[0]):
+        return f"the hand detector's landmarks (no palm found) are not steady (class {pose})"
     return f"the hand detector's two readings differ (silhouette: {label[0]}, landmarks: {pose})"
 
 

@@ -72,7 +72,34 @@ def test_a_small_hand_on_wood_is_found_in_the_bottom_corners_squares(shared_hand
     inside = truth[np.clip(pts[:, 1].astype(int), 0, 479), np.clip(pts[:, 0].astype(int), 0, 639)]
     assert inside.mean() >= 0.8, inside
     monkeypatch.setattr(lmk, "palm_views", lambda image: views[:3])  # the views before issue 50's session 3
+    monkeypatch.setattr(lmk, "bottom_boxes", lambda h, w: [])  # and without the landmark model's own squares
     assert find_landmarks(frame) == []
+
+
+def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf, monkeypatch):
+    """A held-out 7 on stripes: no palm view holds a palm the landmark model confirms; the landmark model run
+    on the upright squares along the bottom edge (`bottom_boxes`) finds it, its landmarks on the hand. Found
+    without a palm, its class must be steady in the rereadings even where the two classifiers agree: this
+    one's is not, so no command. A hand-free stripes frame gives no hand there."""
+    import perception.landmarks as lmk
+
+    frame, truth = composite(held_out(shared_hands, 7), "stripes", 52)
+    boxes = lmk.bottom_boxes(480, 640)
+    assert len(boxes) == 6 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
+    hands = find_landmarks(frame)
+    assert len(hands) == 1 and hands[0].palm_score == 0.0  # no palm: found by a bottom box
+    pts = hands[0].points
+    inside = truth[np.clip(pts[:, 1].astype(int), 0, 479), np.clip(pts[:, 0].astype(int), 0, 639)]
+    assert inside.mean() >= 0.9, inside
+    with pytest.raises(NoHandError, match="no palm found\\) are not steady \\(class 7\\)"):
+        find_hand(frame, clf)
+    monkeypatch.setattr(lmk, "bottom_boxes", lambda h, w: [])
+    assert find_landmarks(frame) == []
+    with pytest.raises(NoHandError, match="the hand detector sees no hand"):
+        find_hand(frame, clf)
+    monkeypatch.undo()
+    empty = cm.degrade(cm.background_maker("stripes")(np.random.default_rng(52)), np.random.default_rng(53), 0.5)
+    assert find_landmarks(empty) == []
 
 
 def test_hands_in_front_of_clutter_are_found_with_their_silhouettes_and_classes(shared_hands, clf):
