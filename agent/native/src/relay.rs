@@ -306,7 +306,7 @@ impl InboxRelay {
     }
 
     fn clock(&self, session: &Session, clock: u64) {
-        self.with(session, |ib, out| ib.clock(clock, out));
+        self.with(session, |ib, out| ib.clock(clock, Instant::now(), out));
     }
 
     fn due(&self, session: &Session, now: Instant) {
@@ -393,7 +393,7 @@ impl StateRelay {
             .declare_subscriber(format!("{}/{}/watch/*", keys::PREFIX, table.run))
             .callback(move |sample: Sample| {
                 if let Some((id, cells)) = t.watched(sample.key_expr().as_str(), &sample.payload().to_bytes()) {
-                    ib.with(&own, |inboxes, out| inboxes.watch(id, cells, out));
+                    ib.with(&own, |inboxes, out| inboxes.watch(id, cells, Instant::now(), out));
                 }
             })
             .wait()?;

@@ -14,10 +14,12 @@
 //! sending (dead, frozen) is waited for twice (`due`), then no more: its latest step falls behind.
 //!
 //! The launcher's pacing clock (`ctl/clock`, ~one tick per step) rides in the same messages instead of waking
-//! every agent once more: each message carries the latest clock. An agent whose latest state says it may now be
-//! held by the clock it was last given (0 if none: ctl/start paces an agent from clock 0; its next step more than agent::CLOCK_LEAD ahead of it: it waits for a
-//! tick, and its neighbours, held too, send nothing) gets the newer clock at once, alone; so does every agent
-//! still behind at the launcher's once-a-second repetition of the clock (a safety net: a second at worst).
+//! every agent once more: each message carries the latest clock. A complete group that the latest clock would
+//! not let its agent use (its next step more than agent::CLOCK_LEAD ahead) waits for the tick that does, and
+//! goes out with it: one wake-up, not two (`holds`). The clock goes alone only to an agent held by the clock it
+//! was last given (0 if none: ctl/start paces an agent from clock 0) that has no group of its own step to come
+//! (it waits for a tick, and its neighbours, held too, send nothing); so does it to every agent still behind
+//! at the launcher's once-a-second repetition of the clock (a safety net: a second at worst).
 //!
 //! An inbox message (v1, little-endian): u8 version = 1, u8 kind = 3, u16 flags (bit 0: the clock is set),
 //! u32 reserved (0), u64 clock, then whole 104-byte state records (at most MAX_RECORDS).
@@ -80,6 +82,8 @@ struct Watcher {
     since: Option<Instant>,
     /// the group of step `next` went out once at its wait, incomplete (`due`)
     overdue: bool,
+    /// since when the pending group, complete, waits for the clock tick that lets its agent step (`holds`)
+    held: Option<Instant>,
     /// per sender, the highest step given to this agent (sent or pending)
     given: HashMap<u32, u32>,
     /// the step the pending group waits for (None: the first state sets it)
@@ -134,7 +138,7 @@ impl Inboxes {
     }
 
     /// Agent `id` now watches `cells` (its whole set, watch.rs).
-    pub fn watch(&mut self, id: u32, cells: Vec<Cell>, out: &mut Out) {
+    pub fn watch(&mut self, id: u32, cells: Vec<Cell>, now: Instant, out: &mut Out) {
         let w = self.watchers.entry(id).or_default();
         for c in &w.cells {
             if let Some(list) = self.watching.get_mut(c) {
@@ -145,7 +149,7 @@ impl Inboxes {
             self.watching.entry(c).or_default().push(id);
         }
         w.cells = cells;
-        self.look(id, out);
+        self.look(id, now, out);
     }
 
     /// A state the relay passed on: agent `from`'s step-`step` record, in `cell`.
@@ -174,7 +178,7 @@ impl Inboxes {
         for j in to {
             self.give(j, from, step, record, now, out);
         }
-        if self.held(from) {
+        if self.held(from) && !self.carries_clock(from) {
             self.send_clock(from, out);
         }
         // It left the cells of those who watch its old cell and not its new one: they no longer wait for it
@@ -182,15 +186,16 @@ impl Inboxes {
             let was: Vec<u32> = self.watching.get(&c).cloned().unwrap_or_default();
             for j in was {
                 if j != from && !self.watchers.get(&j).is_some_and(|w| w.cells.contains(&cell)) {
-                    self.look(j, out);
+                    self.look(j, now, out);
                 }
             }
         }
     }
 
-    /// A tick of the launcher's clock: it goes with every message from now on, and alone to each agent it may
-    /// hold (or, at a repetition of the same tick, to each agent still behind it).
-    pub fn clock(&mut self, clock: u64, out: &mut Out) {
+    /// A tick of the launcher's clock: it goes with every message from now on. The groups it held (`holds`)
+    /// and now lets step go out with it; alone it goes only to an agent it may hold that has no group to come
+    /// (or, at a repetition of the same tick, to each agent still behind it that has none held).
+    pub fn clock(&mut self, clock: u64, now: Instant, out: &mut Out) {
         let again = self.clock == Some(clock);
         if self.clock.is_some_and(|c| clock < c) {
             return; // the clock only moves on
@@ -198,11 +203,36 @@ impl Inboxes {
         self.clock = Some(clock);
         let ids: Vec<u32> = self.watchers.keys().copied().collect();
         for j in ids {
-            let behind = self.watchers[&j].clock_sent < clock;
-            if (again && behind) || self.held(j) {
+            let w = &self.watchers[&j];
+            if w.held.is_some() {
+                if !self.holds(j) {
+                    self.watchers.get_mut(&j).expect("listed").held = None;
+                    self.look(j, now, out);
+                }
+                continue;
+            }
+            let behind = w.clock_sent < clock;
+            if ((again && behind) || self.held(j)) && !self.carries_clock(j) {
                 self.send_clock(j, out);
             }
         }
+    }
+
+    /// Whether the launcher's latest clock keeps agent `j` from its next step (`agent::paced`): its complete
+    /// group then waits for the tick that lets it (one wake-up for the group and the tick, not one each: an
+    /// agent handed its group while held woke, found itself held, and woke again for the tick alone, ~0.5 of a
+    /// wake-up per agent-step at N = 300). Only once a clock came: before the launcher's first tick the agents
+    /// are paced from 0 (ctl/start), and a relay that never hears the clock must not hold anything.
+    fn holds(&self, j: u32) -> bool {
+        let (Some(clock), Some(&(_, step))) = (self.clock, self.latest.get(&j)) else { return false };
+        crate::agent::paced(u64::from(step) + 1, clock)
+    }
+
+    /// Whether agent `j`'s group of its own latest step is still to go out: the agent waits for it before its
+    /// next step, and it will carry the clock.
+    fn carries_clock(&self, j: u32) -> bool {
+        let w = &self.watchers[&j];
+        w.held.is_none() && w.next.is_some() && w.next == self.latest.get(&j).map(|&(_, s)| s)
     }
 
     /// Whether agent `j` may be waiting for a newer clock than the one it was given: its next step is more than
@@ -244,6 +274,18 @@ impl Inboxes {
     /// wait, after which the group waits for the step after (a neighbour that stopped: its latest step falls
     /// behind and it is no longer waited for).
     pub fn due(&mut self, now: Instant, out: &mut Out) {
+        // A group held for the clock goes out at MAX_INBOX_WAIT without it: the agent, waiting for its
+        // neighbours, republishes at a quarter of its 2 s timeout; held by the clock instead it waits without one.
+        let released: Vec<u32> = self
+            .watchers
+            .iter()
+            .filter(|(_, w)| w.held.is_some_and(|t| now.duration_since(t) >= MAX_INBOX_WAIT))
+            .map(|(&j, _)| j)
+            .collect();
+        for j in released {
+            self.watchers.get_mut(&j).expect("listed").held = None;
+            self.look_and_send(j, now, out);
+        }
         let wait = self.wait();
         let late: Vec<u32> = self
             .watchers
@@ -259,7 +301,7 @@ impl Inboxes {
                 w.overdue = true;
                 w.since = Some(now);
             } else if let Some(n) = w.next {
-                self.advance(j, n + 1, out);
+                self.advance(j, n + 1, now, out);
             }
         }
     }
@@ -273,7 +315,15 @@ impl Inboxes {
             w.given.insert(from, step);
         }
         let next = *w.next.get_or_insert(step);
-        if step < next || w.buf.len() >= MAX_RECORDS * crate::wire::STATE_SIZE {
+        if w.buf.len() >= MAX_RECORDS * crate::wire::STATE_SIZE {
+            w.held = None;
+            flush(j, w, self.clock, out); // a full message
+            return;
+        }
+        if w.held.is_some() {
+            return; // it goes with the group, which waits for the clock
+        }
+        if step < next {
             flush(j, w, self.clock, out); // late (or a republication): the agent waits for it now
             return;
         }
@@ -281,19 +331,30 @@ impl Inboxes {
             w.got += 1;
         }
         if w.got >= w.need {
-            self.look(j, out);
+            self.look(j, now, out);
         }
     }
 
-    /// Whether agent `j`'s group has every state it waits for: then out it goes, and the next step's (a
-    /// neighbour ran ahead, or `j` was frozen: a loop, not a call per step, however far behind it is).
-    fn look(&mut self, j: u32, out: &mut Out) {
+    /// Whether agent `j`'s group has every state it waits for: then out it goes (or waits for the clock, if
+    /// the group is of the agent's latest step and the clock holds it), and the next step's (a neighbour ran
+    /// ahead, or `j` was frozen: a loop, not a call per step, however far behind it is).
+    fn look(&mut self, j: u32, now: Instant, out: &mut Out) {
         loop {
             let Some(next) = self.watchers.get(&j).and_then(|w| w.next) else { return };
             let (complete, need) = self.complete(j, next);
+            let own = self.latest.get(&j).map(|&(_, s)| s);
+            let hold = complete && need > 0 && own == Some(next) && self.holds(j);
             let w = self.watchers.get_mut(&j).expect("a watcher");
             w.need = need;
+            if hold {
+                w.since = None;
+                w.held.get_or_insert(now);
+                return;
+            }
             if !complete {
+                if w.since.is_none() && !w.buf.is_empty() {
+                    w.since = Some(now); // released by the clock, then a neighbour moved in: it waits anew
+                }
                 return;
             }
             flush(j, w, self.clock, out);
@@ -308,10 +369,20 @@ impl Inboxes {
     }
 
     /// Agent `j`'s group now waits for step `next`; it may be complete already (a neighbour ran ahead).
-    fn advance(&mut self, j: u32, next: u32, out: &mut Out) {
+    fn advance(&mut self, j: u32, next: u32, now: Instant, out: &mut Out) {
         self.watchers.get_mut(&j).expect("a watcher").wait_for(next);
         // who is waited for changes with the step (an agent left behind no longer is): looked at anew
-        self.look(j, out);
+        self.look(j, now, out);
+    }
+
+    /// A held group released without the clock (`due`): out it goes as it is, and the group waits for the
+    /// next step.
+    fn look_and_send(&mut self, j: u32, now: Instant, out: &mut Out) {
+        let w = self.watchers.get_mut(&j).expect("a watcher");
+        flush(j, w, self.clock, out);
+        if let Some(n) = w.next {
+            self.advance(j, n + 1, now, out);
+        }
     }
 
     /// (whether every agent `j` waits for at step `next` was given it, how many it waits for)
@@ -372,8 +443,8 @@ mod tests {
     fn three(t: Instant) -> (Inboxes, Out) {
         let mut ib = Inboxes::default();
         let mut out = Out::new();
-        ib.watch(0, vec![(0, 0), (1, 0)], &mut out);
-        ib.watch(1, vec![(0, 0), (1, 0), (2, 0)], &mut out);
+        ib.watch(0, vec![(0, 0), (1, 0)], t, &mut out);
+        ib.watch(1, vec![(0, 0), (1, 0), (2, 0)], t, &mut out);
         step_all(&mut ib, 0..=0, t, &mut out);
         (ib, out)
     }
@@ -514,35 +585,96 @@ mod tests {
         assert!(out.is_empty());
     }
 
+    /// To whom, the clock, the records' (id, step).
+    type Sent = (u32, Option<u64>, Vec<(u32, u32)>);
+
+    /// Each message as `Sent`.
+    fn sent(out: &Out) -> Vec<Sent> {
+        out.iter()
+            .map(|(j, m)| {
+                let (clock, records) = parse(m).expect("an inbox message");
+                let ids = records.chunks(crate::wire::STATE_SIZE).map(|r| crate::wire::peek_id_step(r).unwrap());
+                (*j, clock, ids.collect())
+            })
+            .collect()
+    }
+
     #[test]
-    fn the_clock_rides_along_and_goes_alone_to_whom_it_holds() {
+    fn a_group_the_clock_holds_goes_out_with_the_tick_that_lets_its_agent_step() {
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
         out.clear();
-        ib.clock(0, &mut out); // nobody was given a clock: nobody is held by one
+        ib.clock(0, t, &mut out); // nobody was given a clock: nobody is held by one
         assert!(out.is_empty());
-        ib.state(2, 1, (2, 0), &rec(2, 1), t, &mut out);
-        ib.state(0, 1, (0, 0), &rec(0, 1), t, &mut out); // 1's group goes out, with the clock
-        ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out); // and 0's
-        assert_eq!(out.iter().map(|(_, m)| parse(m).unwrap().0).collect::<Vec<_>>(), [Some(0), Some(0)]);
-        step_all(&mut ib, 2..=3, t, &mut out);
+        step_all(&mut ib, 1..=2, t, &mut out); // the groups go out, with the clock
+        assert!(sent(&out).iter().all(|(_, c, _)| *c == Some(0)));
         out.clear();
-        // both were given clock 0 with their step-3 groups: their step 4 is held (4 > 0 + 3): clock 1 alone
-        ib.clock(1, &mut out);
-        assert_eq!(out.iter().map(|(j, m)| (*j, parse(m).unwrap())).collect::<Vec<_>>().len(), 2);
-        assert!(out.iter().all(|(_, m)| parse(m) == Some((Some(1), &[][..]))));
-        out.clear();
-        ib.state(0, 4, (0, 0), &rec(0, 4), t, &mut out); // 0 at 4: held by 1 (5 > 4), but 1 is all there is
+        // step 3: each agent's step 4 is held by clock 0 (4 > 0 + 3), so its complete group waits for a tick
+        step_all(&mut ib, 3..=3, t, &mut out);
         assert!(out.is_empty());
-        ib.clock(2, &mut out); // now 0 gets 2 at once; 1 (at 3: 4 > 1 + 3 is false) is not held
-        assert_eq!(out.len(), 1);
-        assert_eq!((out[0].0, parse(&out[0].1)), (0, Some((Some(2), &[][..]))));
-        out.clear();
-        ib.clock(1, &mut out); // an old tick: nothing
+        ib.due(t + MAX_INBOX_WAIT / 2, &mut out);
         assert!(out.is_empty());
-        ib.clock(2, &mut out); // the once-a-second repetition: 1, given 1 < 2, gets it (the safety net)
-        assert_eq!(out.len(), 1);
-        assert_eq!(out[0].0, 1);
+        ib.clock(1, t, &mut out); // one message each: the tick and the group
+        let mut got = sent(&out);
+        got.sort();
+        assert_eq!(got, [(0, Some(1), vec![(1, 3)]), (1, Some(1), vec![(0, 3), (2, 3)])]);
+        out.clear();
+        // 0 at 4 is held by 1 (5 > 4): its group of step 4 is still to come, with a later clock
+        ib.state(0, 4, (0, 0), &rec(0, 4), t, &mut out);
+        ib.clock(2, t, &mut out);
+        assert!(out.is_empty()); // nothing alone: 0's group of step 4 will carry clock 2
+        ib.state(1, 4, (1, 0), &rec(1, 4), t, &mut out);
+        assert_eq!(sent(&out), [(0, Some(2), vec![(1, 4)])]); // clock 2 lets 0 run step 5
+        out.clear();
+        ib.clock(1, t, &mut out); // an old tick: nothing
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_clock_goes_alone_only_to_a_held_agent_with_no_group_to_come() {
+        let t = Instant::now();
+        let mut ib = Inboxes::default();
+        let mut out = Out::new();
+        ib.watch(3, vec![(9, 9)], t, &mut out); // alone in its cell: no group ever forms
+        ib.clock(0, t, &mut out);
+        ib.state(3, 0, (9, 9), &rec(3, 0), t, &mut out);
+        assert!(out.is_empty()); // given no clock yet (0 from ctl/start) and not held by it
+        for s in 1..=3 {
+            ib.state(3, s, (9, 9), &rec(3, s), t, &mut out);
+        }
+        assert!(out.is_empty()); // at 3 its step 4 is held by 0, and a newer clock is not here yet
+        ib.clock(1, t, &mut out);
+        assert_eq!(sent(&out), [(3, Some(1), vec![])]);
+        out.clear();
+        ib.clock(1, t, &mut out); // the once-a-second repetition: it has it
+        assert!(out.is_empty());
+        ib.state(3, 4, (9, 9), &rec(3, 4), t, &mut out); // held by 1 again (5 > 4): clock 2 alone at once
+        ib.clock(2, t, &mut out);
+        assert_eq!(sent(&out), [(3, Some(2), vec![])]);
+    }
+
+    #[test]
+    fn a_group_held_for_a_clock_that_does_not_come_goes_out_without_it() {
+        let t = Instant::now();
+        let (mut ib, mut out) = three(t);
+        ib.clock(0, t, &mut out);
+        step_all(&mut ib, 1..=3, t, &mut out);
+        out.clear();
+        ib.due(t + MAX_INBOX_WAIT, &mut out); // the agents republish at 0.5 s: they get their groups at 0.4 s
+        let mut got = sent(&out);
+        got.sort();
+        assert_eq!(got, [(0, Some(0), vec![(1, 3)]), (1, Some(0), vec![(0, 3), (2, 3)])]);
+        out.clear();
+        ib.clock(1, t, &mut out); // then the tick goes alone: their next groups wait for their own step 4
+        let mut to: Vec<u32> = sent(&out)
+            .iter()
+            .map(|(j, c, r)| {
+                assert!(*c == Some(1) && r.is_empty());
+                *j
+            })
+            .collect();
+        to.sort();
+        assert_eq!(to, [0, 1]);
     }
 
     #[test]
@@ -553,7 +685,7 @@ mod tests {
         let (mut ib, mut out) = three(t);
         step_all(&mut ib, 1..=3, t, &mut out);
         out.clear();
-        ib.clock(3, &mut out);
+        ib.clock(3, t, &mut out);
         assert!(out.iter().all(|(_, m)| parse(m) == Some((Some(3), &[][..]))));
         let mut to: Vec<u32> = out.iter().map(|(j, _)| *j).collect();
         to.sort();
@@ -583,7 +715,7 @@ mod tests {
         let t = Instant::now();
         let (mut ib, mut out) = three(t);
         out.clear();
-        ib.watch(0, vec![(0, 0)], &mut out); // 0 no longer hears 1
+        ib.watch(0, vec![(0, 0)], t, &mut out); // 0 no longer hears 1
         ib.state(1, 1, (1, 0), &rec(1, 1), t, &mut out);
         assert!(ids(&out, 0).is_empty());
         assert!(!ib.is_watching(2) && ib.is_watching(0));
