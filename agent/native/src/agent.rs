@@ -23,7 +23,8 @@ mod report;
 mod step;
 mod wait;
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use std::collections::{BTreeMap, BTreeSet};
 
 use crate::event::Event;
 use crate::final_report::{Counters, FinalReport};
@@ -240,14 +241,14 @@ impl AgentCore {
             cells: BTreeSet::new(),
             buffer: BTreeMap::new(),
             history: BTreeMap::new(),
-            latest: HashMap::new(),
-            heard_at: HashMap::new(),
-            dead: HashSet::new(),
-            ahead_senders: HashSet::new(),
+            latest: HashMap::default(),
+            heard_at: HashMap::default(),
+            dead: HashSet::default(),
+            ahead_senders: HashSet::default(),
             behind: false,
             awake_at: now,
             resumed_at: None,
-            fresh: HashMap::new(),
+            fresh: HashMap::default(),
             clock: None,
             end: None,
             last_step_done: now,

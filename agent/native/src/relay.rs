@@ -42,8 +42,8 @@ pub const REASONS: [&str; 5] = [wire::REJECT_LENGTH, wire::REJECT_VERSION, wire:
 /// by the relay for every state.
 pub struct RelayTable {
     run: String,
-    ids: RwLock<HashMap<String, u32>>, // exact id key -> the agent id it belongs to
-    cell: RwLock<Option<f64>>,         // the cell side (m = h), one for the whole run
+    ids: RwLock<rustc_hash::FxHashMap<String, u32>>, // exact id key -> the agent id it belongs to
+    cell: RwLock<Option<f64>>,                       // the cell side (m = h), one for the whole run
     rejected: [AtomicU64; REASONS.len()],
 }
 
@@ -273,12 +273,17 @@ impl Batcher {
 #[cfg(feature = "net")]
 struct InboxRelay {
     run: String,
-    inner: Mutex<(Inboxes, HashMap<u32, KeyExpr<'static>>)>,
+    inner: Mutex<(Inboxes, rustc_hash::FxHashMap<u32, KeyExpr<'static>>)>,
 }
 
 #[cfg(feature = "net")]
 impl InboxRelay {
-    fn put_all(session: &Session, run: &str, keys_of: &mut HashMap<u32, KeyExpr<'static>>, out: inboxes::Out) {
+    fn put_all(
+        session: &Session,
+        run: &str,
+        keys_of: &mut rustc_hash::FxHashMap<u32, KeyExpr<'static>>,
+        out: inboxes::Out,
+    ) {
         for (to, records) in out {
             let key = match keys_of.get(&to) {
                 Some(k) => k.clone(),

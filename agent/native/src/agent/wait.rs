@@ -1,7 +1,7 @@
 //! Lockstep's wait: the agents whose step-m state this agent must have before it computes step m+1, and the
 //! wait for them (republishing, neighbour timeouts, the start burst).
 
-use std::collections::HashSet;
+use rustc_hash::FxHashSet as HashSet;
 
 use super::{AgentCore, Lock, Phase, Waiting, Wake, LAG_WAIT_STEPS, SLICE, START_BURST_STEPS, START_BURST_TIMEOUT};
 use crate::event::{EventKind, Sighting};
@@ -21,7 +21,7 @@ impl AgentCore {
         let d = self.params.max_step_displacement();
         let base = self.params.support();
         let recent = self.step as i64 - 1;
-        let mut out = HashSet::new();
+        let mut out = HashSet::default();
         let mut stale = Vec::new();
         for (&j, &(s, jx, jy)) in &self.latest {
             if jx.is_nan() {
@@ -68,7 +68,7 @@ impl AgentCore {
             began: now,
             deadline: now + timeout,
             cap: now + 2.0 * timeout,
-            given_up: HashSet::new(),
+            given_up: HashSet::default(),
             resend_at: now + resend_every,
             resend_every,
         }

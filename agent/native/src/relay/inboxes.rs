@@ -24,7 +24,7 @@
 //! An inbox message (v1, little-endian): u8 version = 1, u8 kind = 3, u16 flags (bit 0: the clock is set),
 //! u32 reserved (0), u64 clock, then whole 104-byte state records (at most MAX_RECORDS).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::time::{Duration, Instant};
 
 type Cell = (i64, i64);

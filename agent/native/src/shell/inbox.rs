@@ -3,7 +3,8 @@
 //! its one mutex. `push` says whether the core should run now; zenoh's receiving thread then runs it itself
 //! (one wake-up per lockstep step, not one per message and none handed to another thread).
 
-use std::collections::{HashSet, VecDeque};
+use rustc_hash::FxHashSet as HashSet;
+use std::collections::VecDeque;
 
 use crate::agent::{Input, Wake};
 use crate::wire;
