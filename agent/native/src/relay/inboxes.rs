@@ -276,24 +276,11 @@ impl Inboxes {
     pub fn due(&mut self, now: Instant, out: &mut Out) {
         // A group held for the clock goes out at MAX_INBOX_WAIT without it: the agent, waiting for its
         // neighbours, republishes at a quarter of its 2 s timeout; held by the clock instead it waits without one.
-        let released: Vec<u32> = self
-            .watchers
-            .iter()
-            .filter(|(_, w)| w.held.is_some_and(|t| now.duration_since(t) >= MAX_INBOX_WAIT))
-            .map(|(&j, _)| j)
-            .collect();
-        for j in released {
+        for j in self.waited(now, MAX_INBOX_WAIT, |w| w.held) {
             self.watchers.get_mut(&j).expect("listed").held = None;
             self.look_and_send(j, now, out);
         }
-        let wait = self.wait();
-        let late: Vec<u32> = self
-            .watchers
-            .iter()
-            .filter(|(_, w)| w.since.is_some_and(|t| now.duration_since(t) >= wait))
-            .map(|(&j, _)| j)
-            .collect();
-        for j in late {
+        for j in self.waited(now, self.wait(), |w| w.since) {
             let w = self.watchers.get_mut(&j).expect("listed");
             let again = w.overdue;
             flush(j, w, self.clock, out);
@@ -304,6 +291,12 @@ impl Inboxes {
                 self.advance(j, n + 1, now, out);
             }
         }
+    }
+
+    /// The agents whose group has waited `wait` by `now` since the instant `since` gives.
+    fn waited(&self, now: Instant, wait: Duration, since: impl Fn(&Watcher) -> Option<Instant>) -> Vec<u32> {
+        let over = |w: &Watcher| since(w).is_some_and(|t| now.duration_since(t) >= wait);
+        self.watchers.iter().filter(|(_, w)| over(w)).map(|(&j, _)| j).collect()
     }
 
     fn give(&mut self, j: u32, from: u32, step: u32, record: &[u8], now: Instant, out: &mut Out) {
