@@ -277,7 +277,6 @@ impl Inboxes {
         // A group held for the clock goes out at MAX_INBOX_WAIT without it: the agent, waiting for its
         // neighbours, republishes at a quarter of its 2 s timeout; held by the clock instead it waits without one.
         for j in self.waited(now, MAX_INBOX_WAIT, |w| w.held) {
-            self.watchers.get_mut(&j).expect("listed").held = None;
             self.look_and_send(j, now, out);
         }
         for j in self.waited(now, self.wait(), |w| w.since) {
@@ -302,20 +301,19 @@ impl Inboxes {
     fn give(&mut self, j: u32, from: u32, step: u32, record: &[u8], now: Instant, out: &mut Out) {
         let w = self.watchers.get_mut(&j).expect("a watcher");
         w.buf.extend_from_slice(record);
-        w.since.get_or_insert(now);
         let before = w.given.get(&from).copied();
         if before.is_none_or(|b| step > b) {
             w.given.insert(from, step);
         }
         let next = *w.next.get_or_insert(step);
         if w.buf.len() >= MAX_RECORDS * crate::wire::STATE_SIZE {
-            w.held = None;
             flush(j, w, self.clock, out); // a full message
             return;
         }
         if w.held.is_some() {
-            return; // it goes with the group, which waits for the clock
+            return; // it goes with the group, which waits for the clock (its wait is the hold's, not `since`)
         }
+        w.since.get_or_insert(now);
         if step < next {
             flush(j, w, self.clock, out); // late (or a republication): the agent waits for it now
             return;
@@ -399,6 +397,7 @@ impl Inboxes {
 fn flush(j: u32, w: &mut Watcher, clock: Option<u64>, out: &mut Out) {
     w.since = None;
     w.overdue = false;
+    w.held = None;
     if !w.buf.is_empty() {
         if let Some(c) = clock {
             w.clock_sent = c;
