@@ -153,8 +153,11 @@ def test_a_stream_that_stalls_is_named_with_the_problem():
                     seen += 1
             except StreamError as exc:
                 message = str(exc)
+            read = stream.frames_read
     finally:
         hang.set()
         server.shutdown()
-    assert seen == 10
+    # All 10 came off the connection; the observer is handed the newest frame at most 20 times a second,
+    # and one that falls behind the camera's 20 a second (a loaded machine) skips some: it saw 9 under -n 2.
+    assert read == 10 and 0 < seen <= read, (read, seen)
     assert message.startswith(f"camera {url}: the stream stalled (no frame for ")
