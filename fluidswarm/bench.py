@@ -97,6 +97,7 @@ def lockstep(n: int, steps: int, record: bool = True) -> LockstepRun:
     from agent.sph.reference import PerParticleDriver, VectorisedDriver
     from fluidswarm.block import Block
     from fluidswarm.run import Run, RunOptions
+    from fluidswarm.run_config import Recording
 
     # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
     # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),
@@ -127,7 +128,7 @@ def lockstep(n: int, steps: int, record: bool = True) -> LockstepRun:
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
-        with Run(kind, RunOptions(f"bench_{n}", None, NEIGHBOUR_TIMEOUT.benchmark)) as run:
+        with Run(kind, RunOptions(Recording(None, f"bench_{n}"), NEIGHBOUR_TIMEOUT.benchmark)) as run:
             run.on_start(lambda: snapshot(run))
             run.on_stop(lambda: snapshot(run))
             kind.drive(run)

@@ -106,9 +106,9 @@ def score_formation(
     t = im.transform
     rows, cols = mask.shape
     extent = (t.x0, t.x0 + cols * t.scale, t.y0 - rows * t.scale, t.y0)
-    assert run.options.out is not None  # an imitation writes its formation picture (RunOptions.out)
+    assert run.options.recording.out is not None  # an imitation writes its formation picture (Recording.out)
     png = plot_formation(
-        Path(run.options.out) / f"{run.options.name}_formation.png",
+        Path(run.options.recording.out) / f"{run.options.recording.name}_formation.png",
         pos,
         classes,
         [c.name for c in im.command.classes],
@@ -182,7 +182,7 @@ class FileImitation:
         assert im.observation.frame is not None  # observe() keeps the picture of every frame it read
         target, image = write_target(tmp, im, im.observation.frame)
         meta = {
-            "scenario": o.name,
+            "scenario": o.recording.name,
             "input": str(self.input_path),
             "frame": frame,
             "frame_steps": self.frame_steps,
@@ -211,7 +211,9 @@ class FileImitation:
             run.on_stop(self.watch.stop)
         first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
         layout = None
-        if o.workers and o.shares == "formation" and not sequence:  # a sequence's later gestures are not known yet
+        if (
+            o.access.workers and o.access.shares == "formation" and not sequence
+        ):  # a sequence's later gestures are not known yet
             from fluidswarm.share_layout import formation_ahead
 
             layout = formation_ahead(im.setup, im.command)
@@ -277,22 +279,13 @@ def run_options(config: RunConfig, realtime: bool | None = None, progress: bool 
     """What the `Run` of an imitation needs of its configuration (`realtime`: None for the configuration's)."""
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 
-    r, a = config.recording, config.access
     return RunOptions(
-        r.name,
-        r.out,
+        config.recording,
         NEIGHBOUR_TIMEOUT.imitation,
-        live=r.live,
-        ros2=r.ros2,
         commands=True,
         progress=progress,
-        run=a.run,
-        connect=a.connect,
-        auth_file=a.auth_file,
-        workers=a.workers,
-        workers_timeout=a.workers_timeout,
+        access=config.access,
         realtime=config.realtime if realtime is None else realtime,
-        shares=a.shares,
     )
 
 

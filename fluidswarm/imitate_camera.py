@@ -153,7 +153,7 @@ class CameraImitation:
         # the subject the coordinator chose (said before its first observation): with `auto`, not "auto"
         chosen = next((n for _t, n in heard if isinstance(n, Subject)), Subject(self.subject, "given"))
         meta = {
-            "scenario": o.name,
+            "scenario": o.recording.name,
             "camera": str(self.source),
             "fps": self.fps,
             "gesture": im.command.gesture,

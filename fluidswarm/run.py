@@ -35,8 +35,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
 from fluidswarm.recording.progress import Progress
-from fluidswarm.run_config import Sync
-from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
+from fluidswarm.run_config import Access, Recording, Sync
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
 from swarmhost.supervisor import stop_process
@@ -80,30 +79,23 @@ class SwarmPlan:
 
 @dataclass
 class RunOptions:
-    """name: the run's name in outputs (MCAP `<out>/<name>.mcap`); out: output folder (None: nothing
-    written, no recorder); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:
-    fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; live: HOST:PORT
-    of the recorder's Foxglove server; commands: the agents follow signed gesture commands; progress: the
-    progress line on stderr (`run` and `demo`; the other commands keep stderr for errors); run/connect: the bus
-    (None: a fresh run on an embedded router); auth_file: with connect, the run's users file (else
-    $FLUIDSWARM_AUTH_FILE; docs/security.md)."""
+    """How a run goes beside its kind: `recording` what it writes and where (fluidswarm/run_config.py
+    Recording: out None writes nothing and starts no recorder; the MCAP is `<out>/<name>.mcap`), `access` the
+    bus it runs on (Access: a fresh run on an embedded router, or `connect` + `run` with a users file and other
+    hosts as workers); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:
+    fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; commands: the agents
+    follow signed gesture commands; progress: the progress line on stderr (`run` and `demo`; the other commands
+    keep stderr for errors); realtime: simulated time held to the wall clock (swarmhost/pacing.py
+    pace_realtime)."""
 
-    name: str
-    out: Path | None = None
+    recording: Recording
     neighbour_timeout: float = NEIGHBOUR_TIMEOUT.default
     failures: tuple = ()
     seed: int = 0
-    live: str = ""
-    ros2: str = ""  # the ROS 2 router's endpoint: the recorder also publishes the run there (docs/ros2.md)
     commands: bool = False
     progress: bool = False
-    run: str | None = None
-    connect: str | None = None
-    auth_file: str = ""
-    realtime: bool = False  # simulated time held to the wall clock (swarmhost/pacing.py pace_realtime)
-    workers: int = 0  # with connect and run: the run's other hosts, `fluidswarm worker`s (docs/multi-host.md)
-    workers_timeout: float = WORKERS_TIMEOUT
-    shares: str = SHARE_KINDS[0]  # how the swarm is cut between the hosts (SHARE_KINDS)
+    access: Access = field(default_factory=Access)
+    realtime: bool = False
 
 
 @dataclass
@@ -215,19 +207,19 @@ class Run:
         o = self.options
         try:
             self.launcher = Launcher(
-                run=o.run,
-                connect=o.connect,
+                run=o.access.run,
+                connect=o.access.connect,
                 agent_timeout=o.neighbour_timeout,
-                auth_file=o.auth_file,
+                auth_file=o.access.auth_file,
                 commands=o.commands,
             )
         except ValueError as exc:  # a bad run name
             raise UserError(str(exc)) from None
         self.salt = ""
-        if o.workers:
+        if o.access.workers:
             self._derive_command_key()
-        if o.out is not None:
-            Path(o.out).mkdir(parents=True, exist_ok=True)
+        if o.recording.out is not None:
+            Path(o.recording.out).mkdir(parents=True, exist_ok=True)
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -275,26 +267,26 @@ class Run:
         from swarmhost.launcher import agent_specs, startup_budget
         from swarmhost.workers import PlanServer, share_plans
 
-        o, la, setup = self.options, self.launcher, plan.setup
+        a, la, setup = self.options.access, self.launcher, plan.setup
         everyone = [int(i) for i in setup.ids]
-        if o.workers + 1 > len(everyone):
-            raise UserError(f"--workers {o.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
+        if a.workers + 1 > len(everyone):
+            raise UserError(f"--workers {a.workers}: {len(everyone)} agents make at most {len(everyone) - 1} workers")
         cut = setup.states[:, :2] if plan.share_layout is None else plan.share_layout  # `formation`: the kind's
-        if o.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
-            parts = np.array_split(np.argsort(np.asarray(setup.ids), kind="stable"), o.workers + 1)
+        if a.shares == "ids":  # ranges of ids (as `launch --ids`): for comparison with regions (docs/multi-host.md)
+            parts = np.array_split(np.argsort(np.asarray(setup.ids), kind="stable"), a.workers + 1)
         else:
-            parts = regions(cut, o.workers + 1)
+            parts = regions(cut, a.workers + 1)
         # this host (the workers' routers connect to its router) takes the part bordering the most others
         parts = central_first(cut, parts, float(setup.params.support))
         shares = [sorted(int(setup.ids[k]) for k in part) for part in parts]
-        start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + o.workers_timeout
+        start_timeout = max(120.0, startup_budget(everyone, plan.startup_timeout) + 30.0) + a.workers_timeout
         extra = {**plan.sync.spec(), "start_timeout": start_timeout}
         specs = [agent_specs(la, setup, plan.steps, ids, everyone, plan.per_agent, **extra) for ids in shares[1:]]
         server = PlanServer(la, share_plans(la.run, len(everyone), self.salt, specs))
         self._on_stop.append(server.close)
         self._on_start.insert(0, server.mark_started)
-        print(f"run={la.run} waiting_for_workers={o.workers}", flush=True)
-        server.wait_workers(o.workers_timeout)
+        print(f"run={la.run} waiting_for_workers={a.workers}", flush=True)
+        server.wait_workers(a.workers_timeout)
         return replace(
             plan,
             ids=shares[0],
@@ -341,8 +333,8 @@ class Run:
         `coordinator_notes`: it follows a camera coordinator's notes on the bus (these said before it started)."""
         if path:
             self.mcap = Path(path)
-        elif self.options.out is not None:
-            self.mcap = Path(self.options.out) / f"{self.options.name}.mcap"
+        elif self.options.recording.out is not None:
+            self.mcap = Path(self.options.recording.out) / f"{self.options.recording.name}.mcap"
         else:
             return None
         self.launcher.start_recorder(
@@ -351,16 +343,16 @@ class Run:
             dt,
             target=target,
             image=image,
-            live=self.options.live,
+            live=self.options.recording.live,
             coordinator_notes=coordinator_notes,
-            ros2=self.options.ros2,
+            ros2=self.options.recording.ros2,
         )
         return self.mcap
 
     def swarm(self, plan: SwarmPlan) -> SwarmResult:
         """Run the plan's agents to their end, with the run's failures and its progress line."""
         o, la = self.options, self.launcher
-        if o.workers:
+        if o.access.workers:
             plan = self._serve_workers(plan)
         self.plan = plan
         if plan.ids is not None and plan.swarm_ids is not None:
@@ -427,7 +419,7 @@ class Run:
         log = self.injector.log if self.injector else None
         finals = dict(res.finals)
         return RunRecord(
-            name=o.name,
+            name=o.recording.name,
             kind=self.kind.kind,
             agents=len(res.ids),
             steps=plan.steps,

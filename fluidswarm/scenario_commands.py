@@ -16,7 +16,7 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import SYNC_OPTION, check_agents
+from fluidswarm.run_config import SYNC_OPTION, Access, Recording, check_agents
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -188,17 +188,14 @@ def run_once(
     imitation = sc.experiment == "imitate"
     timeout = sc.neighbour_timeout or (NEIGHBOUR_TIMEOUT.imitation if imitation else NEIGHBOUR_TIMEOUT.default)
     options = RunOptions(
-        sc.name,
-        out,
+        Recording(out, sc.name, live, ros2),
         timeout,
         failures=sc.failures,
         seed=sc.seed,
-        live=live,
-        ros2=ros2,
         commands=imitation,
         progress=True,
+        access=Access(**(hosts or {})),
         realtime=realtime,
-        **(hosts or {}),
     )
     try:
         with Run(kind, options) as run:

@@ -18,6 +18,8 @@ from fluidswarm.run_config import (
     LAUNCH_AGENTS,
     SYNC_OPTION,
     VERIFY_AGENTS,
+    Access,
+    Recording,
     Sync,
     check,
     check_agents,
@@ -203,13 +205,12 @@ def _auth_file(args) -> str:
     return args.auth_file
 
 
-def _options(args, name: str, timeout: float):
+def _options(args, name: str, timeout: float, live: str = "", ros2: str = ""):
     from fluidswarm.run import RunOptions
 
     realtime = getattr(args, "realtime", False)  # launch has --realtime; verify runs as fast as it can
-    return RunOptions(
-        name, None, timeout, run=args.run, connect=args.connect, auth_file=_auth_file(args), realtime=realtime
-    )
+    access = Access(connect=args.connect, run=args.run, auth_file=_auth_file(args))
+    return RunOptions(Recording(None, name, live, ros2), timeout, access=access, realtime=realtime)
 
 
 def _check_block(kind) -> None:
@@ -233,10 +234,8 @@ def _launch(args) -> int:
     check("--max-age", positive_problem(args.max_age))
     if args.live is not None and not args.record:
         raise UserError("--live needs --record FILE.mcap (the recorder process serves the live view)")
-    options = _options(args, "launch", args.timeout)
-    options.live = live_from_args(args)
-    options.ros2 = ros2_from_args(args)
-    if options.ros2 and not args.record:
+    options = _options(args, "launch", args.timeout, live_from_args(args), ros2_from_args(args))
+    if options.recording.ros2 and not args.record:
         raise UserError("--ros2 needs --record FILE.mcap (the recorder process publishes the run)")
     if args.ros2_bag and not args.record:
         raise UserError("--ros2-bag needs --record FILE.mcap (the bag is made from it)")
