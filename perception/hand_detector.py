@@ -18,7 +18,8 @@ benchmark's): 45 disagreements, 17 steady, 16 of those the right class; detectio
 (ten classes) 0.952 -> 0.952, no hand in any of the 315 hand-free frames; on 210 more (seeds 17, held-out 19)
 0.738 -> 0.776, 0.961 -> 0.957. The rereadings cost three landmark passes (~4 ms each), on disagreements only.
 A hand no palm view holds, found by the landmark model alone (landmarks.bottom_boxes), has no palm score to
-vouch for it: its class counts only when steady, even where the two classifiers agree.
+vouch for it: its class counts only when steady, even where the two classifiers agree (then in the mirrored
+and the smaller crop: PALMLESS_SCALES).
 What the rest of the pipeline consumes is unchanged: `Hand.mask` is the silhouette in the frame's pixels.
 """
 
@@ -32,7 +33,7 @@ from perception.eigen import EigenClassifier
 from perception.features import hand_hog
 from perception.hand_pose import PoseClassifier, pose_classifier
 from perception.hand_silhouette import clean_crop, silhouette
-from perception.landmarks import PRESENCE, HandLandmarks, find_landmarks, rereadings
+from perception.landmarks import PRESENCE, REREAD_SCALES, HandLandmarks, find_landmarks, rereadings
 
 # Of the hand's box (the landmarks' bounding box): a silhouette covering less of it is GrabCut losing the
 # hand (a hand's silhouette covers 35-70 % of its landmarks' box; fingers spread: the least).
@@ -48,6 +49,14 @@ MIN_CROP_SHARE = 0.05  # of the classifier's crop: less is GrabCut keeping a sli
 # landmarks that moved more, e.g. 0.10 L fitted to a smaller hand than the one shown (a held-out 2 on noise,
 # silhouette IoU 0.40), are not the hand's.
 STEADY_MOVE = 0.08
+# The rereadings' scales for a hand found without a palm whose two classifiers agree (steady_pose): the
+# mirrored crop and the 0.85 one, not the 1.2 one. Such a hand comes in from the bottom edge, and the larger
+# crop reaches further past it (black): on the tuning composites of landmarks.bottom_boxes, of 12 palm-less
+# hands the two classifiers named right, 9 held in the mirrored and the smaller crop, and 6 of those 9 lost the
+# hand (presence < 0.5) or its class in the larger one, or moved there past STEADY_MOVE; of the two named
+# wrong, one held in the first two. Tuning detection 0.806 -> 0.813 (with the 0.3 squares 0.827), accuracy
+# 0.960 -> 0.958 (0.959); one landmark pass fewer.
+PALMLESS_SCALES: tuple[float, ...] = (0.85,)
 MIN_HAND_PX = 24  # the palm length [px] below which a hand is too small to classify (a 100-px photo's: 30-45)
 
 
@@ -113,20 +122,28 @@ def learned_hand(
     palm = lm.palm_score > 0.0  # else found by the landmark model alone (landmarks.bottom_boxes)
     if pose == str(label[0]) and palm:
         return LearnedHand(mask, str(label[0]), float(conf[0]), distance)
+    if pose == str(label[0]):  # and no palm
+        if votes >= 1.0 and steady_pose(frame_bgr, lm, poses, pose, PALMLESS_SCALES):
+            return LearnedHand(mask, pose, votes, distance)
+        return f"the hand detector's landmarks (no palm found) are not steady (class {pose})"
     if votes >= 1.0 and steady_pose(frame_bgr, lm, poses, pose):
         return LearnedHand(mask, pose, votes, distance)
-    if pose == str(label[0]):
-        return f"the hand detector's landmarks (no palm found) are not steady (class {pose})"
     return f"the hand detector's two readings differ (silhouette: {label[0]}, landmarks: {pose})"
 
 
-def steady_pose(frame_bgr: np.ndarray, lm: HandLandmarks, poses: PoseClassifier, pose: str) -> bool:
+def steady_pose(
+    frame_bgr: np.ndarray,
+    lm: HandLandmarks,
+    poses: PoseClassifier,
+    pose: str,
+    scales: tuple[float, ...] = REREAD_SCALES,
+) -> bool:
     """Whether the landmarks' class `pose` holds when the hand is read again in other crops (`rereadings`):
     every rereading finds the hand, its NEIGHBOURS nearest training hands all vote for `pose`, and its
     landmarks lie where the first reading's did (on average over the rereadings, each landmark within
     STEADY_MOVE of the hand's palm length)."""
     moves = []
-    for again in rereadings(frame_bgr, lm.points):
+    for again in rereadings(frame_bgr, lm.points, scales):
         if again.presence < PRESENCE:
             return False
         if poses.predict(again.points) != (pose, 1.0):

@@ -37,8 +37,9 @@ REFINE_SCALE = 2.0
 REFINE_SHIFT = -0.1
 REREAD_SCALES = (0.85, 1.2)  # of the tracking box's side: the rereadings' crops (REFINE_SCALE 2.0 -> 1.7, 2.4)
 BOTTOM_SIDE = 0.75  # of the picture's height: the bottom corners' squares (palm_views)
-# of the picture's height: the side of bottom_boxes' squares (0.6 as well found 4 more of 40 hands, 4 more passes)
-BOTTOM_CROPS = (0.4,)
+# of the picture's height: the sides of bottom_boxes' squares (0.6 as well found 4 more of 40 hands, 4 more passes;
+# 0.3, issue 50 session 6: hands 100-130 px tall, whose landmarks a square ~1.3 times their box finds)
+BOTTOM_CROPS = (0.4, 0.3)
 BOTTOM_BELOW = 0.1  # of a bottom box's side: below the picture's edge
 
 FINGERS = ((1, 2, 3, 4), (5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
@@ -217,15 +218,17 @@ def landmark_box(points: np.ndarray) -> tuple[float, float, float, float]:
     return float(cx), float(cy), max(w, h) * REFINE_SCALE, rotation
 
 
-def rereadings(image_bgr: np.ndarray, points: np.ndarray) -> list[HandLandmarks]:
+def rereadings(
+    image_bgr: np.ndarray, points: np.ndarray, scales: tuple[float, ...] = REREAD_SCALES
+) -> list[HandLandmarks]:
     """The same hand read again in other crops round its landmarks `points` (test-time augmentation): the
     tracking box (`landmark_box`) mirrored, and that box REREAD_SCALES times its size. A hand's landmarks
     barely move between them; landmarks the model fitted to a wall's pattern or to a half-seen hand move
     (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts only if every
-    rereading gives it). Three landmark passes (~4 ms each)."""
+    rereading gives it). 1 + len(scales) landmark passes (~4 ms each)."""
     cx, cy, side, rotation = landmark_box(points)
     out = [landmarks_in(image_bgr, (cx, cy, side, rotation), mirrored=True)]
-    for scale in REREAD_SCALES:
+    for scale in scales:
         out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation)))
     return out
 
@@ -272,7 +275,13 @@ def bottom_boxes(h: int, w: int) -> list[tuple[float, float, float, float]]:
     (ten classes) 0.958 -> 0.960, hand-free frames read as a hand 1 of 525 as before. The palm detector
     letterboxes the whole view and wants a palm of 28 px of its 192; the landmark model looks at a square
     hand-sized crop. Cost: up to 6 landmark passes (~25 ms) on frames without a palm only: the median frame's
-    time did not move (bench-perception seed 0, back to back under the lock: 45.4 ms without, 44.8 with)."""
+    time did not move (bench-perception seed 0, back to back under the lock: 45.4 ms without, 44.8 with).
+    Squares of 0.3 of the height as well (session 6: 8 more; a landmark pass in a square 1.3 times the pasted
+    hand's box, centred on it, confirmed 25 of the 31 tuning hands still not found, most 95-130 px tall, for
+    which the 0.4 squares are 1.5-2 times too large): no hand found in the 525 hand-free frames, and with
+    hand_detector.PALMLESS_SCALES detection 0.806 -> 0.827 at accuracy 0.960 -> 0.959. Up to 14 landmark passes
+    (~55 ms) on a frame without a palm: the median did not move (44.3 ms against 46.7, back to back), the 90th
+    percentile 96 -> 100 ms."""
     boxes = []
     for share in BOTTOM_CROPS:
         side = share * h

@@ -79,18 +79,24 @@ def test_a_small_hand_on_wood_is_found_in_the_bottom_corners_squares(shared_hand
 def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf, monkeypatch):
     """A held-out 7 on stripes: no palm view holds a palm the landmark model confirms; the landmark model run
     on the upright squares along the bottom edge (`bottom_boxes`) finds it, its landmarks on the hand. Found
-    without a palm, its class must be steady in the rereadings even where the two classifiers agree: this
-    one's is not, so no command. A hand-free stripes frame gives no hand there."""
+    without a palm, its class must be steady in the rereadings even where the two classifiers agree: it is
+    in the mirrored and the smaller crop (hand_detector.PALMLESS_SCALES), so it is read as a 7; the larger
+    crop, which reaches further past the bottom edge, would have refused it. A hand-free stripes frame gives
+    no hand there."""
+    import perception.hand_detector as hd
     import perception.landmarks as lmk
 
     frame, truth = composite(held_out(shared_hands, 7), "stripes", 52)
     boxes = lmk.bottom_boxes(480, 640)
-    assert len(boxes) == 6 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
+    assert len(boxes) == 14 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
     hands = find_landmarks(frame)
     assert len(hands) == 1 and hands[0].palm_score == 0.0  # no palm: found by a bottom box
     pts = hands[0].points
     inside = truth[np.clip(pts[:, 1].astype(int), 0, 479), np.clip(pts[:, 0].astype(int), 0, 639)]
     assert inside.mean() >= 0.9, inside
+    hand = find_hand(frame, clf)
+    assert hand.label == "7" and np.logical_and(hand.mask, truth).sum() / np.logical_or(hand.mask, truth).sum() > 0.7
+    monkeypatch.setattr(hd, "PALMLESS_SCALES", lmk.REREAD_SCALES)
     with pytest.raises(NoHandError, match="no palm found\\) are not steady \\(class 7\\)"):
         find_hand(frame, clf)
     monkeypatch.setattr(lmk, "bottom_boxes", lambda h, w: [])
