@@ -22,17 +22,17 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.protocol.imitation import Plan
 from agent.sph.obstacles import Obstacle
-from agent.sph.radio import PERFECT, RadioModel
-from agent.sph.robot import POINT, RobotModel
+from agent.sph.radio import PERFECT
+from agent.sph.robot import POINT
 from coordinator import handover
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.fill import ShapeError
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, Imitation, imitation_of_input
+from coordinator.control.imitation_setup import Imitation, imitation_of_input
 from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
 from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
-from fluidswarm.run_config import AGENTS, RunConfig
+from fluidswarm.run_config import RunConfig
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from swarmhost.supervisor import die_with_parent
@@ -128,16 +128,15 @@ def score_formation(
 
 @dataclass
 class FileImitation:
-    """Imitate `input_path`: one frame (`frame`, default 0) until the formation settles (`settle`; None:
-    always `steps` steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each shown for
-    `frame_steps` swarm steps. `sph`/`dt` override the imitation's SPH parameters; `drop`: agent id ->
-    fraction of its states it drops (failure injection); `robot` the particles' body and drive; `radio` what
-    their radios make of the states they receive (agent/sph/radio.py; its draws seeded from the run's seed)."""
+    """Imitate `input_path` with the swarm `config` describes (fluidswarm/run_config.py RunConfig: its agents,
+    steps, controller, the robots' body and drive, what their radios make of the states they receive, the
+    radio's draws seeded from the run's seed): one frame (`frame`, default 0) until the formation settles
+    (`settle`; None: always its steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each
+    shown for `frame_steps` swarm steps. `sph`/`dt` override the imitation's SPH parameters; `drop`: agent id ->
+    fraction of its states it drops (failure injection)."""
 
     input_path: str
-    agents: int = AGENTS
-    steps: int = DEFAULT_STEPS
-    controller: str = DEFAULT_CONTROLLER
+    config: RunConfig
     frame: int | None = None
     frame_steps: int = 0
     sph: dict | None = None
@@ -146,8 +145,6 @@ class FileImitation:
     drop: dict | None = None
     settle: SettleRule | None = SettleRule()
     kind: str = "imitation"
-    robot: RobotModel = POINT
-    radio: RadioModel = PERFECT
     obstacles: tuple[Obstacle, ...] = ()  # the domain's static obstacles (agent/sph/obstacles.py)
     start: tuple[float, float] | None = None  # the start layout's centre [m]; None: the silhouette's interior
     source: str = "--obstacles"  # what bad obstacles or a bad start are named after (a scenario file)
@@ -159,21 +156,21 @@ class FileImitation:
     def drive(self, run: Run) -> None:
         sequence = self.frame_steps > 0
         frame = None if sequence else (0 if self.frame is None else self.frame)
-        im = perceive(self.input_path, self.agents, self.controller, frame)
+        im = perceive(self.input_path, self.config.agents, self.config.controller, frame)
         if self.sph or self.dt:
             im.setup.params = im.setup.params.with_overrides(self.sph or {}, self.dt)
         if self.start is not None:
             im.setup = im.setup.moved_to(self.start)
-        if self.robot != POINT:
+        if self.config.robot != POINT:
             try:  # before the recorder and the agents start
-                im.setup = im.setup.with_robot(self.robot)
+                im.setup = im.setup.with_robot(self.config.robot)
             except ValueError as exc:
                 raise UserError(f"--robot: {exc}") from None
         if self.obstacles:
             im.setup = self._among_obstacles(im)
         o = run.options
-        if self.radio != PERFECT:
-            im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
+        if self.config.radio != PERFECT:
+            im.setup = replace(im.setup, radio=self.config.radio.with_seed(o.seed))
         self.im = im
         # its coordinator broadcasts the planned commands (signed with the run's key), paced by the run's clock
         plan = Plan(tuple((first, c.encode(bytes.fromhex(run.launcher.secret))) for first, c in im.commands))
@@ -187,16 +184,16 @@ class FileImitation:
             "frame": frame,
             "frame_steps": self.frame_steps,
             "gesture": im.command.gesture,
-            "controller": self.controller,
-            "agents": self.agents,
-            "steps": self.steps,
+            "controller": self.config.controller,
+            "agents": self.config.agents,
+            "steps": self.config.steps,
             "seed": o.seed,
             "sync": self.sync.mode,
             "params": im.setup.params.as_dict(),
             "robot": im.setup.robot.as_dict(),
             "radio": im.setup.radio.as_dict(),
             "obstacles": im.setup.obstacle_dicts(),
-            "agent_ids": list(range(self.agents)),
+            "agent_ids": list(range(self.config.agents)),
             "transform": im.transform.as_dict(),
             "failures": [getattr(f, "__dict__", str(f)) for f in o.failures],
         }
@@ -220,7 +217,7 @@ class FileImitation:
         run.swarm(
             SwarmPlan(
                 im.setup,
-                self.steps,
+                self.config.steps,
                 self.sync,
                 per_agent={i: {"drop_out": f} for i, f in (self.drop or {}).items()},
                 joiners_at=(first.x, first.y),
@@ -293,8 +290,7 @@ def imitate(input_path: str, config: RunConfig, frame: int | None = None, progre
     """`fluidswarm imitate INPUT`: one frame of `input_path` imitated as `config` says (fluidswarm/run_config.py);
     with workers in its access (and connect, run, the users file) this host runs region 1 of 1 + workers and
     `fluidswarm worker`s on other hosts the rest (docs/multi-host.md)."""
-    c = config
-    kind = FileImitation(str(input_path), c.agents, c.steps, c.controller, frame, robot=c.robot, radio=c.radio)
+    kind = FileImitation(str(input_path), config, frame)
     with Run(kind, run_options(config, progress=progress)) as this:
         kind.drive(this)
     return this.record

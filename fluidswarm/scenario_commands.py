@@ -16,7 +16,7 @@ from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import SYNC_OPTION, Access, Recording, check_agents
+from fluidswarm.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -150,19 +150,16 @@ def kind_for(sc: Scenario, agents: int):
     drop = {f.agent: f.fraction for f in sc.failures if f.kind == "drop"}
     if any(a >= agents for a in drop):
         raise UserError(f"{sc.path}: key 'failures': drop names agent {max(drop)}, the swarm has ids 0..{agents - 1}")
+    swarm = RunConfig(agents, sc.steps or DEFAULT_STEPS, sc.controller, sc.robot, sc.radio)
     return FileImitation(
         str(path),
-        agents,
-        sc.steps or DEFAULT_STEPS,
-        sc.controller,
+        swarm,
         None if sc.frame < 0 else sc.frame,
         sc.frame_steps,
         sc.sph,
         sc.dt,
         scenario_sync(sc),
         drop,
-        robot=sc.robot,
-        radio=sc.radio,
         obstacles=sc.obstacles,
         start=sc.start,
         source=str(sc.path),
