@@ -25,15 +25,15 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.protocol.imitation import Commanded, End, Missing, Subject
 from agent.protocol.spec import SyncMode
-from agent.sph.radio import PERFECT, RadioModel
-from agent.sph.robot import POINT, RobotModel
+from agent.sph.radio import PERFECT
+from agent.sph.robot import POINT
 from coordinator import handover
 from coordinator.control.fidelity import fidelity
-from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS, imitation_for
+from coordinator.control.imitation_setup import imitation_for
 from coordinator.control.observe import Observation
 from fluidswarm.imitate import run_options, score_formation, start_coordinator
 from fluidswarm.run import Run, RunRecord, SwarmPlan
-from fluidswarm.run_config import AGENTS, CAMERA_FPS, CAMERA_STALL_SECONDS, Access, Camera, RunConfig
+from fluidswarm.run_config import Access, Camera, RunConfig
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
@@ -83,22 +83,15 @@ class CoordinatorWatch:
 
 @dataclass
 class CameraImitation:
-    """Imitate the person seen by `source` for `steps` steps; the gesture sequence comes as it happens.
-    fps [1/s]: at most this many frames observed per second; stall_seconds [s]: no new frame for this long
-    is an error. `robot`, `radio`: the particles' body and drive and what their radios make of the states
-    they receive, as for an input file (fluidswarm/imitate.py FileImitation)."""
+    """Imitate the person seen by `camera` (fluidswarm/run_config.py Camera: its source, at most `fps` frames
+    observed per second, a stall of `stall_seconds` an error, the subject, a ROS 2 topic's router) with the
+    swarm `config` describes (RunConfig: its agents for its steps, controller, the robots' body and drive and
+    what their radios make of the states they receive, as for an input file, fluidswarm/imitate.py
+    FileImitation); the gesture sequence comes as it happens."""
 
-    source: str
-    agents: int = AGENTS
-    steps: int = DEFAULT_STEPS
-    controller: str = DEFAULT_CONTROLLER
-    fps: float = CAMERA_FPS
-    stall_seconds: float = CAMERA_STALL_SECONDS
-    subject: str = "person"
+    camera: Camera
+    config: RunConfig
     kind: str = "camera"
-    robot: RobotModel = POINT
-    radio: RadioModel = PERFECT
-    ros2_router: str = ""  # a ROS 2 topic source (`ros2:/...`): the ROS 2 system's router (docs/ros2.md)
 
     def drive(self, run: Run) -> None:
         o = run.options
@@ -110,62 +103,62 @@ class CameraImitation:
             run,
             [
                 "--camera",
-                str(self.source),
+                str(self.camera.source),
                 "--fps",
-                repr(float(self.fps)),
+                repr(float(self.camera.fps)),
                 "--stall-seconds",
-                repr(float(self.stall_seconds)),
+                repr(float(self.camera.stall_seconds)),
                 "--agents",
-                str(self.agents),
+                str(self.config.agents),
                 "--controller",
-                self.controller,
+                self.config.controller,
                 "--subject",
-                self.subject,
-                *(["--ros2-router", self.ros2_router] if self.ros2_router else []),
+                self.camera.subject,
+                *(["--ros2-router", self.camera.ros2_router] if self.camera.ros2_router else []),
             ],
         )
         run.launcher.helpers.forget(coord)  # its end is the stream's end, handled here: not a lost helper
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)
-        wait = FIRST_SECONDS + self.stall_seconds
+        wait = FIRST_SECONDS + self.camera.stall_seconds
         seen = notes.wait_seen(
             coord,
             wait,
-            lambda: _nothing_seen(notes, self.source, wait, self.subject),
-            what=f"the coordinator of camera {self.source}",
+            lambda: _nothing_seen(notes, self.camera.source, wait, self.camera.subject),
+            what=f"the coordinator of camera {self.camera.source}",
         )
         # planned here, from what the coordinator saw: its map and first command are the ones it built
         first = Observation(seen.observed, seen.mask, seen.label, None, seen.parts, seen.index)
-        self.im = im = imitation_for([first], self.agents, self.controller)
-        if self.robot != POINT:
+        self.im = im = imitation_for([first], self.config.agents, self.config.controller)
+        if self.config.robot != POINT:
             try:  # before the recorder and the agents start
-                im.setup = im.setup.with_robot(self.robot)
+                im.setup = im.setup.with_robot(self.config.robot)
             except ValueError as exc:
                 raise UserError(f"--robot: {exc}") from None
-        if self.radio != PERFECT:
-            im.setup = replace(im.setup, radio=self.radio.with_seed(o.seed))
+        if self.config.radio != PERFECT:
+            im.setup = replace(im.setup, radio=self.config.radio.with_seed(o.seed))
         target, image = tmp / "target.npz", tmp / "input.jpg"
         t = im.transform
         np.savez(target, mask=im.mask, scale=t.scale, x0=t.x0, y0=t.y0)
         image.write_bytes(seen.picture)  # the frame as the coordinator encoded it (what cv2.imwrite writes)
         heard = notes.notes()
         # the subject the coordinator chose (said before its first observation): with `auto`, not "auto"
-        chosen = next((n for _t, n in heard if isinstance(n, Subject)), Subject(self.subject, "given"))
+        chosen = next((n for _t, n in heard if isinstance(n, Subject)), Subject(self.camera.subject, "given"))
         meta = {
             "scenario": o.recording.name,
-            "camera": str(self.source),
-            "fps": self.fps,
+            "camera": str(self.camera.source),
+            "fps": self.camera.fps,
             "gesture": im.command.gesture,
-            "controller": self.controller,
-            "agents": self.agents,
-            "steps": self.steps,
+            "controller": self.config.controller,
+            "agents": self.config.agents,
+            "steps": self.config.steps,
             "sync": SyncMode.LOCKSTEP,
             "seed": o.seed,
             "params": im.setup.params.as_dict(),
             "robot": im.setup.robot.as_dict(),
             "radio": im.setup.radio.as_dict(),
-            "agent_ids": list(range(self.agents)),
+            "agent_ids": list(range(self.config.agents)),
             "transform": im.transform.as_dict(),
             "subject": chosen.subject,
             "subject_chosen": chosen.how,
@@ -175,7 +168,7 @@ class CameraImitation:
         # what was said before it listens is handed to it.
         early = tuple(n.what for _t, n in heard if isinstance(n, Missing))
         run.record_to(meta, im.setup.params.dt, target=str(target), image=str(image), coordinator_notes=early)
-        run.swarm(SwarmPlan(im.setup, self.steps))
+        run.swarm(SwarmPlan(im.setup, self.config.steps))
         self.heard = notes.notes()
         commanded = [n for _t, n in self.heard if isinstance(n, Commanded)]
         self.latest = commanded[-1].mask if commanded else im.mask  # the last gesture commanded
@@ -194,37 +187,25 @@ class CameraImitation:
             elif isinstance(note, Missing):
                 r.notes.append(f"t={t:.2f} s: {note.what}")
             elif isinstance(note, End):
-                r.notes.append(f"t={t:.2f} s: camera {self.source}: the video ended after {note.frames} frames")
+                r.notes.append(f"t={t:.2f} s: camera {self.camera.source}: the video ended after {note.frames} frames")
 
     def score(self, run: Run) -> None:
         self.account(run)
         coord = run.coordinator
         assert coord is not None  # drive() started it
         if self.watch.failed or coord.returncode not in (0, -15, None):
-            raise UserError(f"{_coordinator_error(coord, self.source)} (recorded so far: {run.mcap})")
+            raise UserError(f"{_coordinator_error(coord, self.camera.source)} (recorded so far: {run.mcap})")
         # Against the last gesture commanded, from the final reports (the recorder scores the same target,
         # followed from the coordinator's notes, on the last step it wrote).
         _ids, pos = run.record.done_positions()
         score = fidelity(self.latest, self.im.transform, pos)
-        score_formation(run, run.record, self.latest, self.im, f"camera {self.source}", score)
+        score_formation(run, run.record, self.latest, self.im, f"camera {self.camera.source}", score)
 
 
 def imitate_camera(camera: Camera, config: RunConfig) -> RunRecord:
     """`fluidswarm imitate --camera SOURCE [--subject hand|person|auto]` as `config` says, paced to the wall
     clock (on this host only: a camera's run has no workers)."""
-    c = config
-    kind = CameraImitation(
-        camera.source,
-        c.agents,
-        c.steps,
-        c.controller,
-        camera.fps,
-        camera.stall_seconds,
-        camera.subject,
-        robot=c.robot,
-        radio=c.radio,
-        ros2_router=camera.ros2_router,
-    )
+    kind = CameraImitation(camera, config)
     with Run(kind, run_options(replace(config, access=Access()), realtime=True)) as run:
         kind.drive(run)
     return run.record
