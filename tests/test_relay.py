@@ -179,3 +179,12 @@ def test_a_tls_link_is_refused_in_one_line_naming_the_upstream_bug_and_quic_need
         assert main(argv) == 1
         err = capsys.readouterr().err
         assert said in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_only_a_router_that_connects_to_others_waits_for_their_routes():
+    """zenoh's router sleeps scouting/delay (500 ms) at the end of its open, for the routers it connects to:
+    one connecting to none is configured not to (agent/protocol/session.py router_settings)."""
+    alone = router_config_dict(["tcp/127.0.0.1:7447"])
+    joined = router_config_dict(["tcp/127.0.0.1:7447"], connect=["tcp/10.0.0.2:7447"])
+    assert alone["scouting"]["delay"] == 0
+    assert "delay" not in joined["scouting"]
