@@ -283,3 +283,23 @@ def test_a_routers_batch_is_taken_record_by_record_and_a_bad_one_is_counted(reco
     rec.finish(quiet=0.0)
     rec.writer.close()
     assert recorded(path) == {0: {0, 1, 2}, 1: {0, 2}, 2: {0, 1, 2}}
+
+
+def test_agents_stopped_a_step_apart_leave_a_complete_file(recorder):
+    """A run stopped mid-step (ctl/stop, the launcher's SIGINT) leaves its agents a step or two apart: the ones
+    stopped before a step another made have not lost it (reader.completeness ends them at their `stopped`)."""
+    rec, clock, path = recorder
+    for s in range(25):
+        for j in range(3):
+            post(rec, j, s)
+    post(rec, 2, 25)  # agent 2 was a step ahead when the stop came
+    rec.pump(0.0)
+    for j in range(3):
+        rec.heard_final(report(j, "stopped"), keys.final_key(RUN, j), clock.t)
+        rec.heard_alive(keys.alive_key(RUN, j), False, clock.t)
+    rec.pump(0.0)
+    rec.finish(quiet=0.0, limit=0.0)
+    rec.writer.close()
+    events = {(e.kind, e.agent, e.step) for e in load_run(path, images=False).events if e.kind != "started"}
+    assert events == {("stopped", 0, 25), ("stopped", 1, 25), ("stopped", 2, 26)}
+    assert check(path) == (True, 26, 0)

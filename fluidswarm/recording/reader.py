@@ -1,8 +1,10 @@
 """Read a run's MCAP back into arrays (`load_run`) and verify that nothing was lost (`check`).
 
 Completeness: for every step, the file holds the state of every agent alive at that step. An agent is
-alive from its `started` event (or from the first step if it has none) until its `died` event; an
-event with a `step` holds from that step on, otherwise it holds for steps at times >= the event's time.
+alive from its `started` event (or from the first step if it has none) until its `died`, `stopped` or
+`finished` event (a run stopped mid-step leaves its agents a step or two apart: one stopped before a step
+the others made has not lost it); an event with a `step` holds from that step on, otherwise it holds for
+steps at times >= the event's time.
 The roster is every id seen in a state or an event, plus `agent_ids` from the run metadata if present.
 Steps are the recorded ones plus any gap between the first and the last (a lost step misses every agent
 alive then).
@@ -445,6 +447,11 @@ def salvage_lines(run: Recording) -> str:
     return f"truncated=true\n{run.salvage.lines()}"
 
 
+# The events after which an agent has no more states (fluidswarm/recording/steps.py writes them at the first
+# step it lacks): a death, and the leaving of one that reported (steps.LEFT).
+ENDS = ("died", "stopped", "finished")
+
+
 def completeness(run: Recording) -> Completeness:
     """Apply the completeness rule (module docstring) to a loaded run."""
     if not run.frames:
@@ -461,7 +468,7 @@ def completeness(run: Recording) -> Completeness:
     start: dict[int, np.ndarray] = {}  # agent -> steps at or after its start
     end: dict[int, np.ndarray] = {}  # agent -> steps before its death
     for ev in run.events:
-        if ev.agent is None or ev.kind not in ("started", "died"):
+        if ev.agent is None or ev.kind not in ("started", *ENDS):
             continue
         # np.greater_equal, not `>=`: as for the target masks in _read (the fuzz target under atheris)
         holds = np.greater_equal(all_steps, ev.step) if ev.step is not None else np.greater_equal(all_times, ev.t)
