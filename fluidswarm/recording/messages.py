@@ -243,9 +243,9 @@ def event_log(
     """A `foxglove.Log` on `fluidswarm/<run>/event`.
 
     `level` is a foxglove LogLevel (0-5) or its name ("info", ...); `name` the process (e.g.
-    "agent/17"). For `check`, lifecycle events carry `kind` ("started" | "died"; also "froze",
-    "rejected", ...) and the `agent` id; `step`, if given, is the first step at which the event holds
-    (started: first step with a state; died: first step without one); without it, time `t` decides.
+    "agent/17"). For `check`, lifecycle events carry `kind` ("started" | "died" | "stopped" | "finished";
+    also "froze", "rejected", ...) and the `agent` id; `step`, if given, is the first step at which the event
+    holds (started: first step with a state; the others: first step without one); without it, time `t` decides.
     """
     if isinstance(level, str):
         if level.lower() not in sc.LOG_LEVELS:

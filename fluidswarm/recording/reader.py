@@ -35,6 +35,7 @@ from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.recover import Salvage, salvage, salvage_stream
+from fluidswarm.recording.steps import LEFT
 from fluidswarm.recording.writer import JSON_KEYS
 
 _MAGIC = b"\x89MCAP0\r\n"
@@ -447,9 +448,9 @@ def salvage_lines(run: Recording) -> str:
     return f"truncated=true\n{run.salvage.lines()}"
 
 
-# The events after which an agent has no more states (fluidswarm/recording/steps.py writes them at the first
-# step it lacks): a death, and the leaving of one that reported (steps.LEFT).
-ENDS = ("died", "stopped", "finished")
+# The events after which an agent has no more states, as the recorder's step assembly writes them at the first
+# step it lacks: a death, and the leaving of one that reported (steps.LEFT's kinds: finished, stopped).
+ENDS = ("died", *(kind for kind, _words in LEFT.values()))
 
 
 def completeness(run: Recording) -> Completeness:
