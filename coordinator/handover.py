@@ -52,7 +52,24 @@ def error_line(proc: subprocess.Popen) -> str:
         err = ""
     # Its own error line, not whatever a library logged after it (FFmpeg does, closing a network stream).
     lines = [line for line in err.splitlines() if line.startswith(ERROR_PREFIX)]
-    return lines[-1][len(ERROR_PREFIX) :] if lines else ""
+    if lines:
+        return lines[-1][len(ERROR_PREFIX) :]
+    return _uncaught(err)
+
+
+def _uncaught(err: str) -> str:
+    """An uncaught exception's traceback on stderr as one line: the exception and where it was raised (a bug's
+    only trace once the process has ended; without it the launcher could only name the exit code), or ''."""
+    lines = err.splitlines()
+    starts = [i for i, line in enumerate(lines) if line.startswith("Traceback (most recent call last):")]
+    if not starts:
+        return ""
+    tb = lines[starts[-1] + 1 :]
+    frames = [line.strip() for line in tb if line.startswith("  File ")]
+    # The exception is the traceback's first unindented line ("ValueError: ..."; chained ones repeat below).
+    exc = next((line.strip() for line in tb if line.strip() and not line.startswith(" ")), "an exception")
+    where = frames[-1].removeprefix("File ").replace('"', "") if frames else "?"
+    return f"uncaught {exc} (at {where})"
 
 
 def hand_plan(session, run: str, plan: Plan, proc: subprocess.Popen, timeout: float, what: str = "the coordinator"):

@@ -83,6 +83,25 @@ def test_a_coordinator_that_exits_is_its_own_error_line(session):
     notes.close()
 
 
+def test_a_coordinator_that_dies_of_an_uncaught_exception_names_it_and_where(session):
+    # A bug's traceback is the only trace of it once the process has ended: one line of it, not the exit code.
+    crash = (
+        f'{sys.executable} -c \'import json\ndef observe(frame):\n    raise ValueError("frame 3: bad box")\n'
+        'try:\n    json.loads("{")\nexcept Exception:\n    observe(3)\''
+    )
+    uncaught = r"^uncaught ValueError: frame 3: bad box \(at <string>, line 3, in observe\)$"
+    with pytest.raises(handover.CoordinatorFailed, match=uncaught):
+        handover.hand_plan(session, "r", plan_of(PHOTO, 0), stand_in(crash), 30)
+    notes = handover.Notes(session, "r")
+    with pytest.raises(handover.CoordinatorFailed, match=uncaught):
+        notes.wait_seen(stand_in(crash), 30, str)
+    notes.close()
+    # Its own error line still wins over a traceback printed before it.
+    proc = stand_in(f"{crash}; echo 'fluidswarm coordinator: error: x.jpg: no such file' >&2; exit 1")
+    with pytest.raises(handover.CoordinatorFailed, match=r"^x\.jpg: no such file$"):
+        handover.hand_plan(session, "r", plan_of(PHOTO, 0), proc, 30)
+
+
 def test_a_coordinator_that_exits_without_a_word_is_named_with_its_code(session):
     with pytest.raises(
         handover.CoordinatorFailed, match=r"^the coordinator ended before it commanded \(exit code 3\)$"
