@@ -22,7 +22,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("protocol", ("agent.protocol",)),
     ("perception", ("perception",)),
     ("control", ("coordinator.control",)),
-    ("processes", ("swarmhost", "coordinator", "fluidswarm.router", "fluidswarm.recording", "fluidswarm.ros2")),
+    ("processes", ("swarmhost", "coordinator", "fluidswarm.recording", "fluidswarm.ros2")),
     (
         "orchestration",
         (
