@@ -22,7 +22,7 @@ COMMAND_MODULES = (
     "fluidswarm.swarm_commands",
     "perception.commands",
     "fluidswarm.imitate_commands",
-    "fluidswarm.recording.commands",
+    "fluidswarm.replay_command",
     "fluidswarm.scenario_commands",
     "fluidswarm.bench",
     "fluidswarm.router",

@@ -14,7 +14,7 @@ ROBUSTNESS = ("finished_share", "mcap_complete", "mcap_missing_states", "baselin
 def judge(sc: Scenario, record: RunRecord, out: Path, baseline: RunRecord | None) -> RunRecord:
     """Add the robustness figures and the replay pictures to `record` and judge it by `sc.passing`."""
     from fluidswarm.recording.reader import check
-    from fluidswarm.recording.replay import replay
+    from fluidswarm.replay import replay
 
     f = record.figures
     spared = record.agents + record.failures_joined - record.failures_killed - record.failures_frozen

@@ -37,7 +37,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # the command line: every package's subcommand registration (`commands`) and what only it uses
     (
         "application",
-        ("fluidswarm", "perception.commands", "fluidswarm.recording.commands", "fluidswarm.recording.replay"),
+        ("fluidswarm", "perception.commands"),
     ),
 ]
 

@@ -12,8 +12,8 @@ from fluidswarm.cli import main
 from fluidswarm.recording.analysis import series
 from fluidswarm.recording.reader import check, load_run
 from fluidswarm.recording.render import GIF_SIZE, PLOT_SIZE, SNAPSHOT_SIZE, FormationRenderer
-from fluidswarm.recording.replay import replay
 from fluidswarm.recording.synthetic import write_synthetic_run
+from fluidswarm.replay import replay
 
 STEPS, N = 40, 24
 

@@ -1,4 +1,5 @@
-"""Recording and analysis of runs: the MCAP writer and reader, `replay` (the imitation-fidelity score it
+"""Recording and analysis of runs: the MCAP writer and reader, what `fluidswarm replay` renders (its command and
+its work are the command line's: fluidswarm/replay_command.py, fluidswarm/replay.py; the imitation-fidelity score it
 reports is coordinator/control/fidelity.py, the Zhang-Suen thinning behind it perception/skeleton.py).
 
 Modules, one job each:
@@ -10,5 +11,4 @@ Modules, one job each:
 - `reader`    — `load_run` and the completeness `check`.
 - `analysis`  — the per-step series the thesis plots (velocity per class, pressure, spacing).
 - `render`    — PNG snapshots, the GIF and the plots.
-- `replay`    — the `fluidswarm replay` command's work; `commands` registers it.
 """

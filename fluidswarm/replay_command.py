@@ -63,7 +63,7 @@ def _main(args: argparse.Namespace) -> int:
             if e.kind == "host_lost":
                 print(f"lost_host t={e.t:.2f} s: {e.message}")
         return 0 if c.complete else 1
-    from fluidswarm.recording.replay import replay  # matplotlib only when rendering
+    from fluidswarm.replay import replay  # matplotlib only when rendering
 
     result = replay(args.run, args.out, max_frames=args.max_frames, fps=args.fps)
     if result.fidelity is not None:
