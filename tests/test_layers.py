@@ -16,9 +16,10 @@ PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
 # Lowest first. A module belongs to the layer of its longest matching name prefix (a package or a module);
 # a module may import from its own layer and the layers below.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
-    # the compiled boundary records (agent/native/python, known by its stub agent/_native.pyi) and their import
-    ("compiled", ("agent", "agent._native", "agent.records")),
-    ("physics", ("agent.sph", "agent.fill")),
+    # agent/'s own modules: the compiled boundary records (agent/native/python, known by its stub
+    # agent/_native.pyi), their import (records) and the fill law's typed wrapper (fill)
+    ("compiled", ("agent",)),
+    ("physics", ("agent.sph",)),
     ("protocol", ("agent.protocol",)),
     ("perception", ("perception",)),
     ("control", ("coordinator.control",)),
