@@ -12,7 +12,7 @@ from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_opti
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.run_config import (
     AGENTS,
     CAMERA_FPS,

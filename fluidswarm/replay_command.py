@@ -81,10 +81,10 @@ def _main(args: argparse.Namespace) -> int:
 
 
 def _ros2_bag(name: str, out: str) -> int:
-    """`replay --ros2-bag DIR` (fluidswarm/ros2/bag.py): the directory is checked before the file is read."""
+    """`replay --ros2-bag DIR` (fluidswarm/ros2_bag.py): the directory is checked before the file is read."""
     from pathlib import Path
 
-    from fluidswarm.ros2.bag import check_bag_dir, write_bag
+    from fluidswarm.ros2_bag import check_bag_dir, write_bag
 
     check_bag_dir(Path(out))
     summary = write_bag(load_run(name), Path(out))

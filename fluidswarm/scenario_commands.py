@@ -15,7 +15,7 @@ from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_m
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
-from fluidswarm.ros2.options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
 from fluidswarm.scenario import (
     SYNC_MODES,

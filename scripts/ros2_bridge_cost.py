@@ -1,5 +1,5 @@
 """CPU of the ROS 2 bridge's work for one step of N agents: the four step messages built and serialised
-(fluidswarm/ros2/bridge.py `_publish`), puts captured, no session (docs/ros2.md "Cost").
+(fluidswarm/recording/ros2_bridge.py `_publish`), puts captured, no session (docs/ros2.md "Cost").
 
     .venv/bin/python scripts/ros2_bridge_cost.py N [REPEATS]
 """
@@ -22,8 +22,8 @@ class _Discard:
 
 def main() -> int:
     from agent.sph.particle import SPEED
-    from fluidswarm.ros2 import messages as m
-    from fluidswarm.ros2.bridge import Bridge
+    from fluidswarm.recording import ros2_messages as m
+    from fluidswarm.recording.ros2_bridge import Bridge
 
     n = int(sys.argv[1])
     repeats = int(sys.argv[2]) if len(sys.argv) > 2 else 100

@@ -45,7 +45,7 @@ class RecorderProcess:
         `coordinator_notes`: follow a camera coordinator's notes on the bus (the missing notes said before it
         started: written at t = 0), `launcher_events`: the launcher's events folder, followed
         (recording/coordinator_events.py); `ros2`: the ROS 2 router's endpoint, the run also published there
-        (fluidswarm/ros2/bridge.py)."""
+        (fluidswarm/recording/ros2_bridge.py)."""
         check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)

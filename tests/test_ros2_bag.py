@@ -18,8 +18,8 @@ from ruamel.yaml import YAML
 
 from fluidswarm.cli import main
 from fluidswarm.recording.reader import Recording, load_run
+from fluidswarm.recording.ros2_messages import outline_loops
 from fluidswarm.recording.synthetic import write_synthetic_run
-from fluidswarm.ros2.messages import outline_loops
 
 FLUIDSWARM = [sys.executable, "-m", "fluidswarm"]
 V_SIGN = Path(__file__).resolve().parents[1] / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"

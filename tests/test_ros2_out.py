@@ -210,8 +210,8 @@ def test_a_unicycles_yaw_is_its_heading_and_a_points_its_motion():
     """The bridge's step (no session): PoseArray and /tf orientations from the state rows' heading (unicycles)
     or their velocity (others), in id order."""
     from agent.sph.particle import HEADING, SPEED, VX, VY, X, Y
-    from fluidswarm.ros2 import messages as m
-    from fluidswarm.ros2.bridge import Bridge
+    from fluidswarm.recording import ros2_messages as m
+    from fluidswarm.recording.ros2_bridge import Bridge
 
     vals = np.zeros((3, SPEED + 1))
     vals[:, X], vals[:, Y] = [0.5, 0.1, 0.3], [1.0, 1.1, 1.2]

@@ -7,6 +7,7 @@ Modules, one job each:
 - `messages`  — the Foxglove message of each topic, built and validated from plain arrays.
 - `writer`    — `RunWriter`, the one thin MCAP writer the recorder process calls.
 - `recorder`  — the recorder process; `steps` — what it does with each message (states grouped by step).
+- `ros2_messages`, `ros2_bridge` — the run as standard ROS 2 messages, published live by the recorder (`--ros2`).
 - `live`      — `LiveServer`, the Foxglove WebSocket server that shows a run as it happens (`--live`).
 - `reader`    — `load_run` and the completeness `check`.
 - `analysis`  — the per-step series the thesis plots (velocity per class, pressure, spacing).

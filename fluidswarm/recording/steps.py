@@ -323,7 +323,7 @@ class StepAssembly:
         self.writer.write_states(
             step, self.t(step), ids, vals[:, [X, Y]], vals[:, [VX, VY]], vals[:, RHO], vals[:, P], cls
         )
-        if self.writer.tap is not None:  # --ros2 (fluidswarm/ros2/bridge.py): the whole rows, headings too
+        if self.writer.tap is not None:  # --ros2 (fluidswarm/recording/ros2_bridge.py): the whole rows, headings too
             self.writer.tap.states(step, self.t(step), ids, vals)
         if self.contacts is not None:
             self.contacts.update(ids, vals)

@@ -101,7 +101,7 @@ class RunWriter:
     ):
         """`live` (recording.live.LiveServer or None): also gets every message, as it is written;
         `flush_seconds`: the chunk in progress reaches the file at least this often (FLUSH_SECONDS); `tap`
-        (fluidswarm.ros2.bridge.Bridge or None): also handed each target, obstacle set, command, event and image
+        (ros2_bridge.Bridge or None): also handed each target, obstacle set, command, event and image
         (and, by the recorder, each step)."""
         meta = dict(metadata)
         self.run = str(meta.get("run") or Path(path).stem)

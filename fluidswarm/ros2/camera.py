@@ -22,8 +22,7 @@ from typing import Self
 import cv2
 import numpy as np
 
-from fluidswarm.ros2 import messages as m
-from fluidswarm.ros2 import rmw
+from fluidswarm.ros2 import cdr, rmw
 from fluidswarm.ros2.node import Node
 from perception.io import MAX_PIXELS
 from perception.stream import StreamError, StreamParams
@@ -131,7 +130,7 @@ class Ros2FrameStream:
         try:
             if rmw.parse_attachment(attachment) is None:
                 raise ValueError("no rmw_zenoh attachment")
-            msg = m.deserialize(sample.payload.to_bytes(), self.msgtype)
+            msg = cdr.deserialize(sample.payload.to_bytes(), self.msgtype)
         except Exception:  # noqa: BLE001  # untrusted bytes: anything that does not decode is dropped, counted
             with self._lock:
                 self.rejected += 1

@@ -2,7 +2,7 @@
 
 The recorder already has every step whole (fluidswarm/recording/steps.py) and every target, command and event
 (fluidswarm/recording/writer.py): it hands each to `Bridge` (its `tap`), which queues it and returns at once.
-One thread of the bridge turns them into ROS 2 messages (fluidswarm/ros2/messages.py) and publishes them from
+One thread of the bridge turns them into ROS 2 messages (fluidswarm/recording/ros2_messages.py) and publishes them from
 the node `/fluidswarm` (fluidswarm/ros2/node.py) on the ROS 2 system's router.
 
 A router that is absent at start or lost mid-run is one line (`note`); the recording never waits for the ROS 2
@@ -22,7 +22,8 @@ import numpy as np
 from agent.sph.obstacles import Obstacle
 from agent.sph.particle import HEADING, RHO, VX, VY, P, X, Y
 from coordinator.control.geometry import ImageToDomain
-from fluidswarm.ros2 import messages as m
+from fluidswarm.recording import ros2_messages as m
+from fluidswarm.ros2 import cdr
 from fluidswarm.ros2.node import Node
 
 # How far the recorder may be ahead of the bridge before what it hands over is dropped (counted): steps (one
@@ -102,7 +103,7 @@ class Bridge:
     def _run(self) -> None:
         try:
             self.node.open(OPEN_SECONDS)
-            pubs = {t.name: self.node.publisher(t.name, t.msgtype, m.type_hash(t.msgtype), t.qos) for t in m.TOPICS}
+            pubs = {t.name: self.node.publisher(t.name, t.msgtype, cdr.type_hash(t.msgtype), t.qos) for t in m.TOPICS}
         except Exception as exc:  # noqa: BLE001  # zenoh's error for an unreachable router; the run goes on
             self.node.close()
             self.note(f"ros2: no ROS 2 router at {self.endpoint} ({exc}); the run goes on without ROS 2")

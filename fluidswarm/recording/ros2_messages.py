@@ -1,5 +1,5 @@
 """A run's data as the standard ROS 2 messages (docs/ros2.md): what the live bridge publishes
-(fluidswarm/ros2/bridge.py) and the bag holds (fluidswarm/ros2/bag.py), built and CDR-serialised with rosbags'
+(fluidswarm/recording/ros2_bridge.py) and the bag holds (fluidswarm/ros2_bag.py), built and CDR-serialised with rosbags'
 type store (the standard definitions of ROS 2 Jazzy; no codec of our own).
 
 Frames: every position is in `world` (the run's domain, metres, z = 0); each agent's body frame is
@@ -11,15 +11,14 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from functools import cache
 
 import cv2
 import numpy as np
-from rosbags.typesys import Stores, get_typestore
 
 from agent.sph.obstacles import Circle, Obstacle
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.schemas import LOG_LEVELS
+from fluidswarm.ros2.cdr import serialize, typestore
 from fluidswarm.ros2.rmw import KEEP_LAST, RELIABLE, TRANSIENT_LOCAL, VOLATILE, Qos
 
 WORLD = "world"
@@ -63,32 +62,6 @@ POINT_DTYPE = np.dtype(
 POINT_OFFSETS = (("x", 0), ("y", 4), ("z", 8), ("id", 12), ("density", 16), ("pressure", 20))
 _FLOAT32, _UINT32 = 7, 6  # sensor_msgs/PointField datatypes
 LINE_STRIP, ADD, DELETEALL = 4, 0, 3  # visualization_msgs/Marker
-
-
-@cache
-def typestore():
-    """The standard message definitions (ROS 2 Jazzy's; their RIHS01 hashes are the distribution's)."""
-    return get_typestore(Stores.ROS2_JAZZY)
-
-
-@cache
-def type_hash(msgtype: str) -> str:
-    return typestore().hash_rihs01(msgtype)
-
-
-@cache
-def msgdef(msgtype: str) -> str:
-    """The full .msg text with its dependencies (rosbag2's `ros2msg` schema encoding)."""
-    return typestore().generate_msgdef(msgtype, ros_version=2)[0]
-
-
-def serialize(msg, msgtype: str) -> bytes:
-    """CDR (XCDR1, little-endian, with its 4-byte encapsulation header), as rmw_zenoh and rosbag2 carry it."""
-    return bytes(typestore().serialize_cdr(msg, msgtype))
-
-
-def deserialize(data: bytes, msgtype: str):
-    return typestore().deserialize_cdr(data, msgtype)
 
 
 def _t(name: str):

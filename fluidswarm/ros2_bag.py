@@ -4,7 +4,7 @@
 The layout is rosbag2's MCAP storage (rosbag2_storage_mcap, bag version 9): one `DIR/<DIR name>_0.mcap` with
 profile `ros2`, a `ros2msg` schema per type (the full .msg text with its dependencies), `cdr` messages, channel
 metadata `offered_qos_profiles` (YAML) and `topic_type_hash` (RIHS01), the `rosbag2` metadata record, and
-`DIR/metadata.yaml`. The messages are the live bridge's (fluidswarm/ros2/messages.py) built from the MCAP; log
+`DIR/metadata.yaml`. The messages are the live bridge's (fluidswarm/recording/ros2_messages.py) built from the MCAP; log
 times are the simulated clock. rosbags' own bag writer leaves `topic_type_hash` out of the channels, so the file
 is written with the mcap package, rosbags giving the types, hashes and CDR.
 """
@@ -21,10 +21,11 @@ from ruamel.yaml import YAML
 
 from agent.protocol.errors import UserError
 from agent.sph.obstacles import obstacles_from
+from fluidswarm.recording import ros2_messages as m
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.reader import Recording
 from fluidswarm.recording.writer import code_version
-from fluidswarm.ros2 import messages as m
+from fluidswarm.ros2 import cdr
 from fluidswarm.ros2.rmw import KEEP_ALL, RELIABLE, TRANSIENT_LOCAL, Qos
 
 VERSION = 9  # rosbag2's metadata version (Jazzy)
@@ -115,12 +116,12 @@ def _write(run: Recording, path: Path) -> BagSummary:
         writer.start(profile="ros2", library=f"fluidswarm {code_version()}")
         channels = {}
         for t in used:
-            schema = writer.register_schema(t.msgtype, "ros2msg", m.msgdef(t.msgtype).encode())
+            schema = writer.register_schema(t.msgtype, "ros2msg", cdr.msgdef(t.msgtype).encode())
             channels[t.name] = writer.register_channel(
                 t.name,
                 "cdr",
                 schema,
-                {"offered_qos_profiles": _yaml(qos_profiles(t.qos)), "topic_type_hash": m.type_hash(t.msgtype)},
+                {"offered_qos_profiles": _yaml(qos_profiles(t.qos)), "topic_type_hash": cdr.type_hash(t.msgtype)},
             )
         stream_order = sorted(
             ((ns, k, t.name, data) for t in used for k, (ns, data) in enumerate(by_topic[t.name])),
@@ -146,7 +147,7 @@ def _write(run: Recording, path: Path) -> BagSummary:
                         "type": t.msgtype,
                         "serialization_format": "cdr",
                         "offered_qos_profiles": qos_profiles(t.qos),
-                        "type_description_hash": m.type_hash(t.msgtype),
+                        "type_description_hash": cdr.type_hash(t.msgtype),
                     },
                     "message_count": summary.counts[t.name],
                 }

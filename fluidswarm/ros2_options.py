@@ -33,7 +33,7 @@ def ros2_bag_from_args(args) -> Path | None:
     """`--ros2-bag DIR`, checked before the run starts (one line if it exists or cannot be made)."""
     if not getattr(args, "ros2_bag", None):
         return None
-    from fluidswarm.ros2.bag import check_bag_dir
+    from fluidswarm.ros2_bag import check_bag_dir
 
     check_bag_dir(Path(args.ros2_bag))
     return Path(args.ros2_bag)
@@ -46,7 +46,7 @@ def write_run_bag(mcap: str | None, bag: Path | None) -> None:
     if not mcap or not Path(mcap).exists():
         raise UserError(f"--ros2-bag {bag}: the run wrote no MCAP to convert")
     from fluidswarm.recording.reader import load_run
-    from fluidswarm.ros2.bag import write_bag
+    from fluidswarm.ros2_bag import write_bag
 
     summary = write_bag(load_run(mcap), bag)
     print(f"ros2: wrote the bag {bag} ({sum(summary.counts.values())} messages)", file=sys.stderr, flush=True)
