@@ -25,11 +25,24 @@ from pathlib import Path
 
 import numpy as np
 from scipy.linalg import eigh
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from perception import features
 from perception.dataset import load_folder, shared_hands_root
 from perception.io import InputError
+
+_blas: ThreadpoolController | None = None
+
+
+def one_blas_thread():
+    """threadpoolctl's threadpool_limits(1) without its cost per call: it finds the process's BLAS libraries
+    each time (~0.9 ms, read from /proc; a room frame's classifier call is ~1 ms of work). Found once here, on
+    first use: numpy's, scipy's and OpenCV's are all loaded by this module's imports by then."""
+    global _blas
+    if _blas is None:
+        _blas = ThreadpoolController()
+    return _blas.limit(limits=1)
+
 
 METHODS = ("eigen", "best")
 ALIASES = {"baseline": "eigen"}  # the eigen method's earlier name
@@ -146,7 +159,7 @@ class EigenClassifier:
 
     def fit_features(self, x: np.ndarray, labels) -> EigenClassifier:
         # One BLAS thread: for these small matrices on 2 shared cores, threaded BLAS only adds overhead.
-        with threadpool_limits(1):
+        with one_blas_thread():
             return self._fit_features(x, labels)
 
     def _fit_features(self, x: np.ndarray, labels) -> EigenClassifier:
@@ -178,7 +191,7 @@ class EigenClassifier:
 
     def predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(labels, confidence in 0..1 = share of the k nearest training images that voted for it)."""
-        with threadpool_limits(1):
+        with one_blas_thread():
             return self._predict_features(x)
 
     def _predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
