@@ -279,7 +279,7 @@ def bottom_boxes(h: int, w: int) -> list[tuple[float, float, float, float]]:
     Squares of 0.3 of the height as well (session 6: 8 more; a landmark pass in a square 1.3 times the pasted
     hand's box, centred on it, confirmed 25 of the 31 tuning hands still not found, most 95-130 px tall, for
     which the 0.4 squares are 1.5-2 times too large): no hand found in the 525 hand-free frames, and with
-    hand_detector.PALMLESS_SCALES detection 0.806 -> 0.827 at accuracy 0.960 -> 0.959. Up to 14 landmark passes
+    hand_detector.STEADY_SCALES detection 0.806 -> 0.827 at accuracy 0.960 -> 0.959. Up to 14 landmark passes
     (~55 ms) on a frame without a palm: the median did not move (44.3 ms against 46.7, back to back), the 90th
     percentile 96 -> 100 ms."""
     boxes = []

@@ -80,7 +80,7 @@ def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf
     """A held-out 7 on stripes: no palm view holds a palm the landmark model confirms; the landmark model run
     on the upright squares along the bottom edge (`bottom_boxes`) finds it, its landmarks on the hand. Found
     without a palm, its class must be steady in the rereadings even where the two classifiers agree: it is
-    in the mirrored and the smaller crop (hand_detector.PALMLESS_SCALES), so it is read as a 7; the larger
+    in the mirrored and the smaller crop (hand_detector.STEADY_SCALES), so it is read as a 7; the larger
     crop, which reaches further past the bottom edge, would have refused it. A hand-free stripes frame gives
     no hand there."""
     import perception.hand_detector as hd
@@ -96,7 +96,7 @@ def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf
     assert inside.mean() >= 0.9, inside
     hand = find_hand(frame, clf)
     assert hand.label == "7" and np.logical_and(hand.mask, truth).sum() / np.logical_or(hand.mask, truth).sum() > 0.7
-    monkeypatch.setattr(hd, "PALMLESS_SCALES", lmk.REREAD_SCALES)
+    monkeypatch.setattr(hd, "STEADY_SCALES", lmk.REREAD_SCALES)
     with pytest.raises(NoHandError, match="no palm found\\) are not steady \\(class 7\\)"):
         find_hand(frame, clf)
     monkeypatch.setattr(lmk, "bottom_boxes", lambda h, w: [])
@@ -166,6 +166,22 @@ def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_han
     moved = np.mean([np.linalg.norm(a.points - lm.points, axis=1).mean() for a in again]) / lm.palm_length()
     assert moved > hd.STEADY_MOVE, moved
     assert not steady(frame, lm, poses, "2")
+
+
+def test_an_agreement_that_does_not_hold_mirrored_is_refused(shared_hands, clf, monkeypatch):
+    """Both classifiers can be wrong together: a held-out 8 on noise is read as a 9 by the silhouette's and
+    by the landmarks' classifier (the thumb taken to touch the index finger, not the middle one). Read again
+    in its mirrored crop, its landmarks name another class: no hand (the swarm keeps its command), where
+    without that check it was a 9. A held-out 8 on wood read as a 9 likewise."""
+    import perception.hand_detector as hd
+
+    for family, k, seed in (("noise", 0, 22), ("wood", 0, 5)):
+        frame, _ = composite(held_out(shared_hands, 8, k), family, seed)
+        with pytest.raises(NoHandError, match="name another class when read mirrored \\(class 9\\)"):
+            find_hand(frame, clf)
+        monkeypatch.setattr(hd, "MIRROR_BELOW", 0.0)
+        assert find_hand(frame, clf).label == "9"
+        monkeypatch.undo()
 
 
 DRIFTS = (  # gain, gamma, white balance (B, G, R gains)
