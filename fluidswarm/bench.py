@@ -96,8 +96,8 @@ def lockstep(n: int, steps: int, record: bool = True) -> LockstepRun:
     from agent.protocol.spec import NEIGHBOUR_TIMEOUT
     from agent.sph.reference import PerParticleDriver, VectorisedDriver
     from fluidswarm.block import Block
-    from fluidswarm.run import Run, RunOptions
-    from fluidswarm.run_config import Recording
+    from fluidswarm.orchestration.run import Run, RunOptions
+    from fluidswarm.orchestration.run_config import Recording
 
     # 3 minutes for N = 1000 to come up (it did not in 9 min on this machine: docs/benchmarks/native.md)
     # A stalled swarm fails after a few minutes (a healthy one needs ~0.1-0.3 s per step up to N = 300),

@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from fluidswarm.run import json_finite
+from fluidswarm.orchestration.run import json_finite
 
 
 class BenchRecordError(UserError, ValueError):

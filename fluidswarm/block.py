@@ -10,7 +10,7 @@ import numpy as np
 from agent.sph.obstacles import Obstacle
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
-from fluidswarm.run import Run, SwarmPlan, Sync
+from fluidswarm.orchestration.run import Run, SwarmPlan, Sync
 
 EXACT = 1e-9  # m: the agents' positions must match the reference driver's to this (float rounding only)
 

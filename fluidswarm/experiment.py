@@ -11,7 +11,7 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.protocol.spec import SyncMode
 from agent.sph.setups import branch_gap
-from fluidswarm.run import Run, SwarmPlan, Sync
+from fluidswarm.orchestration.run import Run, SwarmPlan, Sync
 from fluidswarm.scenario import Scenario
 
 DEFAULT_STEPS = 400

@@ -8,12 +8,7 @@ from typing import TYPE_CHECKING
 from agent.protocol.errors import UserError
 from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER
 from fluidswarm.json_option import add_json_argument, print_json
-from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
-from fluidswarm.realtime_option import add_realtime_argument
-from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import (
+from fluidswarm.orchestration.run_config import (
     AGENTS,
     CAMERA_FPS,
     CAMERA_STALL_SECONDS,
@@ -23,10 +18,15 @@ from fluidswarm.run_config import (
     RunConfig,
     check_agents,
 )
+from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
+from fluidswarm.realtime_option import add_realtime_argument
+from fluidswarm.recording.live import add_live_argument, live_from_args
+from fluidswarm.robot_option import add_robot_argument, robot_model
+from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
-    from fluidswarm.run import RunRecord
+    from fluidswarm.orchestration.run import RunRecord
 
 
 def register(sub) -> None:
@@ -120,12 +120,12 @@ def run_config(args) -> RunConfig:
 def _imitate(args) -> int:
     config = run_config(args)
     if args.camera is not None:
-        from fluidswarm.imitate_camera import imitate_camera
+        from fluidswarm.orchestration.imitate_camera import imitate_camera
 
         camera = Camera(args.camera, args.fps, args.stall_seconds, args.subject, args.ros2_router)
         record = imitate_camera(camera, config)
     else:
-        from fluidswarm.imitate import imitate
+        from fluidswarm.orchestration.imitate import imitate
 
         # a picture the coordinator cannot read is its one-line error (coordinator/handover.py CoordinatorFailed)
         record = imitate(args.input, config, frame=args.frame)

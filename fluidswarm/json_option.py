@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-HELP = "print the run's record (fluidswarm/run.py RunRecord) as one JSON object instead of key=value lines"
+HELP = (
+    "print the run's record (fluidswarm/orchestration/run.py RunRecord) as one JSON object instead of key=value lines"
+)
 
 
 def add_json_argument(parser) -> None:
@@ -10,5 +12,5 @@ def add_json_argument(parser) -> None:
 
 
 def print_json(record) -> None:
-    """`record`: a fluidswarm.run.RunRecord."""
+    """`record`: a fluidswarm.orchestration.run.RunRecord."""
     print(record.to_json(), flush=True)

@@ -1,6 +1,6 @@
 """`--realtime` of the commands that run a swarm as fast as they can: simulated time held to the wall clock
 instead (swarmhost/pacing.py pace_realtime; `imitate --camera` always is). The record's `realtime_factor` says
-what was reached, and a swarm that cannot keep up says so once (fluidswarm/run.py REALTIME_KEPT)."""
+what was reached, and a swarm that cannot keep up says so once (fluidswarm/orchestration/run.py REALTIME_KEPT)."""
 
 from __future__ import annotations
 

@@ -21,7 +21,7 @@ from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel, robot_from
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER
-from fluidswarm.run_config import AGENTS, Sync, agents_problem, check, positive_problem
+from fluidswarm.orchestration.run_config import AGENTS, Sync, agents_problem, check, positive_problem
 
 CONTROLLERS = (*IMITATION_CONTROLLERS, "none")  # none: a physics experiment, no coordinator
 SYNC_MODES = MODES

@@ -11,12 +11,12 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from agent.sph.robot import POINT
 from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.orchestration.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
 from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
 from fluidswarm.realtime_option import add_realtime_argument
 from fluidswarm.recording.live import add_live_argument, live_from_args
 from fluidswarm.robot_option import add_robot_argument
 from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -29,7 +29,7 @@ from fluidswarm.scenario import (
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
-    from fluidswarm.run import RunRecord
+    from fluidswarm.orchestration.run import RunRecord
 
 DEMO_SCENARIO = "demo_v_sign.toml"  # one of the shipped scenarios (scenario.scenarios_dir)
 
@@ -142,7 +142,7 @@ def kind_for(sc: Scenario, agents: int):
         return Experiment(sc, agents)
     from coordinator.control.imitation_setup import DEFAULT_STEPS
     from fluidswarm.experiment import scenario_sync
-    from fluidswarm.imitate import FileImitation
+    from fluidswarm.orchestration.imitate import FileImitation
 
     path = sc.input_path()
     if path is None or not path.exists():
@@ -178,8 +178,8 @@ def run_once(
     """One run of the scenario with its failures, recorded in `out`; `realtime`: paced to the wall clock;
     `hosts`: with workers on other hosts (worker_command.workers_options: connect, run, workers, ...)."""
     from coordinator.handover import CoordinatorFailed
-    from fluidswarm.imitate import PerceptionFailed
-    from fluidswarm.run import Run, RunOptions
+    from fluidswarm.orchestration.imitate import PerceptionFailed
+    from fluidswarm.orchestration.run import Run, RunOptions
 
     kind = kind_for(sc, agents)
     imitation = sc.experiment == "imitate"

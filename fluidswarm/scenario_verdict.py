@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fluidswarm.run import RunRecord
+from fluidswarm.orchestration.run import RunRecord
 from fluidswarm.scenario import Scenario
 
 # figures added here, after the run (printed after the kind's own, in this order)

@@ -9,12 +9,7 @@ from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES, NEIGHBOUR_TIMEOUT
 from fluidswarm.json_option import add_json_argument, print_json
 from fluidswarm.obstacle_option import add_obstacles_argument, obstacles_option
-from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
-from fluidswarm.realtime_option import add_realtime_argument
-from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
-from fluidswarm.run_config import (
+from fluidswarm.orchestration.run_config import (
     LAUNCH_AGENTS,
     SYNC_OPTION,
     VERIFY_AGENTS,
@@ -25,6 +20,11 @@ from fluidswarm.run_config import (
     check_agents,
     positive_problem,
 )
+from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
+from fluidswarm.realtime_option import add_realtime_argument
+from fluidswarm.recording.live import add_live_argument, live_from_args
+from fluidswarm.robot_option import add_robot_argument, robot_model
+from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
 
 
 def register(sub) -> None:
@@ -206,7 +206,7 @@ def _auth_file(args) -> str:
 
 
 def _options(args, name: str, timeout: float, live: str = "", ros2: str = ""):
-    from fluidswarm.run import RunOptions
+    from fluidswarm.orchestration.run import RunOptions
 
     realtime = getattr(args, "realtime", False)  # launch has --realtime; verify runs as fast as it can
     access = Access(connect=args.connect, run=args.run, auth_file=_auth_file(args))
@@ -226,7 +226,7 @@ def _check_block(kind) -> None:
 
 def _launch(args) -> int:
     from fluidswarm.block import Block
-    from fluidswarm.run import Run
+    from fluidswarm.orchestration.run import Run
 
     _check_counts(args)
     _check_before_start(args)
@@ -283,7 +283,7 @@ def _launch(args) -> int:
 
 def _verify(args) -> int:
     from fluidswarm.block import Block
-    from fluidswarm.run import Run
+    from fluidswarm.orchestration.run import Run
 
     _check_counts(args)
     _check_before_start(args)

@@ -11,7 +11,7 @@ import sys
 
 from agent.protocol.access import AUTH_FILE_ENV
 from agent.protocol.errors import UserError
-from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
+from fluidswarm.orchestration.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 
 
 def add_workers_arguments(p) -> None:

@@ -12,7 +12,7 @@ links. Per step, summed over the directed links:
     messages = sum_i sum_{links l leaving the route of i} [some host behind l subscribes cell(i)]
 
 The swarm's positions come from the numpy oracle following the imitation's command (agent/sph/reference.py,
-as fluidswarm/share_layout.py), every step of a run of the routers' measured length. The model is checked
+as fluidswarm/orchestration/share_layout.py), every step of a run of the routers' measured length. The model is checked
 against the counts of scripts/imitation_traffic.py and then asked what other cuts would send: regions of the
 start layout and of the formation (what `--shares start|formation` do), ranges of ids (`--shares ids`), and,
 for comparison only, the best of some 300 balanced straight cuts of the formation (chosen on every 25th step
@@ -141,7 +141,7 @@ def main(argv: list[str]) -> int:
     print("| --- | --- | --- | --- |")
     base = None
     for name, parts in cuts.items():
-        at = ahead if "formation" in name else path[0]  # what fluidswarm/run.py hands central_first
+        at = ahead if "formation" in name else path[0]  # what fluidswarm/orchestration/run.py hands central_first
         label = part_labels(central_first(at, parts, float(p.support)), n)
         lo = np.mean([messages_per_step(path[s], label, m, r_sub, p.h) for s in range(0, len(path), args.every)])
         hi = np.mean(

@@ -1,6 +1,6 @@
 """Start a swarm of agent processes on this host, run it, collect the final reports, clean up.
 
-Used through fluidswarm/run.py by `fluidswarm launch`, `verify`, `imitate`, `run` and the benchmarks. The
+Used through fluidswarm/orchestration/run.py by `fluidswarm launch`, `verify`, `imitate`, `run` and the benchmarks. The
 `Launcher` of one run puts together parts with one job each:
 
     swarmhost/router_host.py       the run's Zenoh session: an embedded router (at level acl the compiled one,

@@ -59,9 +59,9 @@ ROOT = Path(__file__).resolve().parent.parent
 # and agent/protocol/spec.py reads it from there). `what` is a parameter, field, keyword, option or constant
 # named so (`agents`, `n_agents`, `--agents`, `AGENTS`, `LAUNCH_AGENTS`, ...).
 DECLARED: dict[tuple[str, float | str], str | None] = {
-    ("agents", 60): "fluidswarm/run_config.py",  # an imitation's swarm
-    ("agents", 16): "fluidswarm/run_config.py",  # launch's
-    ("agents", 64): "fluidswarm/run_config.py",  # verify's
+    ("agents", 60): "fluidswarm/orchestration/run_config.py",  # an imitation's swarm
+    ("agents", 16): "fluidswarm/orchestration/run_config.py",  # launch's
+    ("agents", 64): "fluidswarm/orchestration/run_config.py",  # verify's
     ("beta", 2.0): "agent/sph/params.py",  # the fluid's stiffness (sph.rs: checked equal above)
     ("mu", 0.2): "coordinator/control/material.py",  # the imitation's viscosity
     ("rate", 12.0): None,  # an async agent's rate: spec.rs DEFAULT_RATE

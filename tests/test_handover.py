@@ -19,7 +19,7 @@ from agent.protocol import keys
 from agent.protocol.imitation import Missing, Plan, Seen, encode_note, encode_plan, note_key, plan_key
 from coordinator import handover
 from coordinator.control.imitation_setup import imitation_of_input
-from fluidswarm.imitate import PerceptionFailed, perceive
+from fluidswarm.orchestration.imitate import PerceptionFailed, perceive
 
 REPO = Path(__file__).resolve().parents[1]
 PHOTO = REPO / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"

@@ -13,8 +13,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
 
-# Lowest first. A module belongs to the layer of its longest matching name prefix (a package or a module);
-# a module may import from its own layer and the layers below.
+# Lowest first, each entry a package (a folder): a module belongs to the layer of its innermost listed folder
+# (agent/sph/ is physics, agent/ around it the compiled records); a module may import from its own layer and the
+# layers below.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # agent/'s own modules: the compiled boundary records (agent/native/python, known by its stub
     # agent/_native.pyi), their import (records) and the fill law's typed wrapper (fill)
@@ -26,14 +27,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("processes", ("swarmhost", "coordinator", "fluidswarm.recording", "fluidswarm.ros2")),
     (
         "orchestration",
-        (
-            "fluidswarm.run",
-            "fluidswarm.run_config",
-            "fluidswarm.imitate",
-            "fluidswarm.imitate_camera",
-            "fluidswarm.share_layout",
-            "fluidswarm.split_options",
-        ),
+        ("fluidswarm.orchestration",),
     ),
     # the command line; a lower package's subcommand registration (perception/commands.py) stays in its folder's
     # layer: the command line imports it, it imports nothing above its folder
@@ -104,6 +98,14 @@ def test_every_layer_entry_names_a_module():
     known, _ = graph()
     stale = [p for _, prefixes in LAYERS for p in prefixes if p not in known]
     assert not stale, f"tests/test_layers.py LAYERS names modules that do not exist: {stale}"
+
+
+def test_every_layer_entry_is_a_folder():
+    """No exception list: LAYERS names packages (folders), never a module inside one, so every module is in its
+    folder's layer, and a module changes layer only by changing folder."""
+    known, _ = graph()
+    modules = [p for _, prefixes in LAYERS for p in prefixes if p in known and known[p].name != "__init__.py"]
+    assert not modules, f"tests/test_layers.py LAYERS names modules, not folders: {modules}"
 
 
 def test_imports_only_go_down_the_layers():

@@ -1,5 +1,5 @@
-"""One run configuration (fluidswarm/run_config.py): built once from the flags, each value checked once at the
-edge with the same words whichever command or file received it."""
+"""One run configuration (fluidswarm/orchestration/run_config.py): built once from the flags, each value checked
+once at the edge with the same words whichever command or file received it."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from agent.sph.robot import POINT
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
 from fluidswarm.cli import build_parser, main
 from fluidswarm.imitate_commands import run_config
-from fluidswarm.run_config import AGENTS, Access, Recording, RunConfig
+from fluidswarm.orchestration.run_config import AGENTS, Access, Recording, RunConfig
 
 
 def config_of(*argv: str) -> RunConfig:

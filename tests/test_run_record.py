@@ -1,6 +1,6 @@
 """The typed records of a run, without processes: an agent's final report is decoded and validated once
-(agent/protocol/report.py), and a run's record (fluidswarm/run.py) prints as key=value lines and as one JSON
-object with the same figures."""
+(agent/protocol/report.py), and a run's record (fluidswarm/orchestration/run.py) prints as key=value lines and as one
+JSON object with the same figures."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from agent.protocol.report import FinalReport, Status, decode_report
 from coordinator.control.fidelity import Fidelity
 from fluidswarm.imitate_commands import print_lines
-from fluidswarm.run import RunRecord
+from fluidswarm.orchestration.run import RunRecord
 from fluidswarm.scenario_commands import print_summary
 
 # the fields the native agent sends (agent/native/src/final_report.rs), a follower's included

@@ -1,5 +1,5 @@
-"""Where an imitation's swarm is going, for cutting it between hosts (fluidswarm/share_layout.py): the numpy
-oracle run ahead from the coordinator's own set-up, following the command as the agents do."""
+"""Where an imitation's swarm is going, for cutting it between hosts (fluidswarm/orchestration/share_layout.py): the
+numpy oracle run ahead from the coordinator's own set-up, following the command as the agents do."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from agent.sph.reference import VectorisedDriver
 from agent.sph.regions import regions
 from coordinator.control.imitation_setup import prepare
 from coordinator.control.route import followers_for
-from fluidswarm.share_layout import formation_ahead
+from fluidswarm.orchestration.share_layout import formation_ahead
 from perception.io import load_image
 
 PHOTO = Path(__file__).resolve().parents[1] / "scenarios" / "inputs" / "digit2_IMG_1140.JPG"

@@ -1,9 +1,9 @@
 """From what was observed to an imitation: silhouette, transform, SPH parameters, initial swarm, commands.
 
 `imitation_for` is the one function from observations to (set-up, commands); the process that runs the swarm
-calls it for a file (`imitation_of_input`, fluidswarm/imitate.py) and for a camera's first observation, which
-its coordinator puts on the bus (fluidswarm/imitate_camera.py); `reproduce` and the tests call the same
-function."""
+calls it for a file (`imitation_of_input`, fluidswarm/orchestration/imitate.py) and for a camera's first
+observation, which its coordinator puts on the bus (fluidswarm/orchestration/imitate_camera.py); `reproduce`
+and the tests call the same function."""
 
 from __future__ import annotations
 

@@ -108,7 +108,8 @@ class Image:
 
 @dataclass
 class Recording:
-    """A run as its MCAP file holds it, read back (`load_run`); the run itself is fluidswarm/run.py `Run`."""
+    """A run as its MCAP file holds it, read back (`load_run`); the run itself is
+    fluidswarm/orchestration/run.py `Run`."""
 
     path: Path
     name: str

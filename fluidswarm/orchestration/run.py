@@ -34,8 +34,8 @@ import numpy as np
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
+from fluidswarm.orchestration.run_config import Access, Recording, Sync
 from fluidswarm.recording.progress import Progress
-from fluidswarm.run_config import Access, Recording, Sync
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
 from swarmhost.supervisor import stop_process
@@ -79,7 +79,7 @@ class SwarmPlan:
 
 @dataclass
 class RunOptions:
-    """How a run goes beside its kind: `recording` what it writes and where (fluidswarm/run_config.py
+    """How a run goes beside its kind: `recording` what it writes and where (fluidswarm/orchestration/run_config.py
     Recording: out None writes nothing and starts no recorder; the MCAP is `<out>/<name>.mcap`), `access` the
     bus it runs on (Access: a fresh run on an embedded router, or `connect` + `run` with a users file and other
     hosts as workers); neighbour_timeout [s] (agent/protocol/spec.py NEIGHBOUR_TIMEOUT); failures:

@@ -24,7 +24,7 @@ from agent.protocol.spec import MAX_AGE, MODES, RATE, SyncMode
 from agent.sph.radio import PERFECT, RadioModel
 from agent.sph.robot import POINT, RobotModel
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER, DEFAULT_STEPS
-from fluidswarm.split_options import SHARE_KINDS, WORKERS_TIMEOUT
+from fluidswarm.orchestration.split_options import SHARE_KINDS, WORKERS_TIMEOUT
 from perception.stream import StreamParams
 
 AGENTS = 60  # an imitation's swarm (imitate, imitate --camera, a scenario file that names none)

@@ -31,9 +31,9 @@ from coordinator import handover
 from coordinator.control.fidelity import fidelity
 from coordinator.control.imitation_setup import imitation_for
 from coordinator.control.observe import Observation
-from fluidswarm.imitate import run_options, score_formation, start_coordinator
-from fluidswarm.run import Run, RunRecord, SwarmPlan
-from fluidswarm.run_config import Access, Camera, RunConfig
+from fluidswarm.orchestration.imitate import run_options, score_formation, start_coordinator
+from fluidswarm.orchestration.run import Run, RunRecord, SwarmPlan
+from fluidswarm.orchestration.run_config import Access, Camera, RunConfig
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
@@ -83,10 +83,10 @@ class CoordinatorWatch:
 
 @dataclass
 class CameraImitation:
-    """Imitate the person seen by `camera` (fluidswarm/run_config.py Camera: its source, at most `fps` frames
+    """Imitate the person seen by `camera` (run_config.py Camera: its source, at most `fps` frames
     observed per second, a stall of `stall_seconds` an error, the subject, a ROS 2 topic's router) with the
     swarm `config` describes (RunConfig: its agents for its steps, controller, the robots' body and drive and
-    what their radios make of the states they receive, as for an input file, fluidswarm/imitate.py
+    what their radios make of the states they receive, as for an input file, imitate.py
     FileImitation); the gesture sequence comes as it happens."""
 
     camera: Camera

@@ -4,7 +4,7 @@ The imitation is planned here, in the process that runs the swarm: perception ob
 coordinator/control/imitation_setup.py `imitation_for` (pure) gives the swarm's start, the transform and the
 commands. The coordinator process is handed the commands, signed with the run's key, as a plan on the bus
 (agent/protocol/imitation.py, coordinator/handover.py `hand_plan`) and broadcasts them, paced by the run's
-clock. The run is a `fluidswarm.run.Run`; this module is its `RunKind` (drive: plan, start the coordinator,
+clock. The run is a `run.Run`; this module is its `RunKind` (drive: plan, start the coordinator,
 record, run the swarm with the settle watch; score: fidelity of the final formation, the formation PNG).
 """
 
@@ -29,10 +29,10 @@ from coordinator.control.fidelity import Fidelity
 from coordinator.control.fill import ShapeError
 from coordinator.control.imitation_setup import Imitation, imitation_of_input
 from coordinator.control.settle import SettleRule, SettleWatch
+from fluidswarm.orchestration.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
+from fluidswarm.orchestration.run_config import RunConfig
 from fluidswarm.recording.reader import recorded_fidelity
 from fluidswarm.recording.render import plot_formation
-from fluidswarm.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
-from fluidswarm.run_config import RunConfig
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from swarmhost.supervisor import die_with_parent
@@ -128,7 +128,7 @@ def score_formation(
 
 @dataclass
 class FileImitation:
-    """Imitate `input_path` with the swarm `config` describes (fluidswarm/run_config.py RunConfig: its agents,
+    """Imitate `input_path` with the swarm `config` describes (run_config.py RunConfig: its agents,
     steps, controller, the robots' body and drive, what their radios make of the states they receive, the
     radio's draws seeded from the run's seed): one frame (`frame`, default 0) until the formation settles
     (`settle`; None: always its steps), or with `frame_steps` > 0 the gesture sequence of all its frames, each
@@ -211,7 +211,7 @@ class FileImitation:
         if (
             o.access.workers and o.access.shares == "formation" and not sequence
         ):  # a sequence's later gestures are not known yet
-            from fluidswarm.share_layout import formation_ahead
+            from fluidswarm.orchestration.share_layout import formation_ahead
 
             layout = formation_ahead(im.setup, im.command)
         run.swarm(
@@ -287,7 +287,7 @@ def run_options(config: RunConfig, realtime: bool | None = None, progress: bool 
 
 
 def imitate(input_path: str, config: RunConfig, frame: int | None = None, progress: bool = False) -> RunRecord:
-    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated as `config` says (fluidswarm/run_config.py);
+    """`fluidswarm imitate INPUT`: one frame of `input_path` imitated as `config` says (run_config.py);
     with workers in its access (and connect, run, the users file) this host runs region 1 of 1 + workers and
     `fluidswarm worker`s on other hosts the rest (docs/multi-host.md)."""
     kind = FileImitation(str(input_path), config, frame)
