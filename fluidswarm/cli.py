@@ -1,7 +1,8 @@
 """The `fluidswarm` console command.
 
-Each subcommand lives next to the code it drives and exposes `register(subparsers)`; this module only
-collects them, so teams can add commands without touching one another's files. The project's errors
+Each subcommand lives next to the code it drives and exposes `register(subparsers)`; this module imports each
+one by name and collects them (a subcommand's module that cannot be imported is an error here, never a command
+silently missing from `--help`). The project's errors
 (agent/protocol/errors.py `FluidswarmError`: `UserError` for what the user can fix, `SwarmError` for a run's
 processes) are printed as one line (exit 1); argparse usage errors exit 2.
 """
@@ -9,26 +10,38 @@ processes) are printed as one line (exit 1); argparse usage errors exit 2.
 from __future__ import annotations
 
 import argparse
-import importlib
 import signal
 import sys
 from typing import NoReturn
 
 from agent.protocol.errors import FluidswarmError
+from fluidswarm import (
+    auth_file,
+    bench,
+    imitate_commands,
+    replay_command,
+    router,
+    scenario_commands,
+    simulate,
+    swarm_commands,
+    worker_command,
+)
+from fluidswarm.reproduce import command as reproduce_command
+from perception import commands as perception_commands
 
-# Modules that contribute subcommands, in the order they appear in `--help`.
+# The modules that contribute subcommands, in the order they appear in `--help`.
 COMMAND_MODULES = (
-    "fluidswarm.simulate",
-    "fluidswarm.swarm_commands",
-    "perception.commands",
-    "fluidswarm.imitate_commands",
-    "fluidswarm.replay_command",
-    "fluidswarm.scenario_commands",
-    "fluidswarm.bench",
-    "fluidswarm.router",
-    "fluidswarm.auth_file",
-    "fluidswarm.worker_command",
-    "fluidswarm.reproduce.command",
+    simulate,
+    swarm_commands,
+    perception_commands,
+    imitate_commands,
+    replay_command,
+    scenario_commands,
+    bench,
+    router,
+    auth_file,
+    worker_command,
+    reproduce_command,
 )
 
 
@@ -41,13 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fluidswarm", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name and name.startswith(exc.name):  # that part of the product is not built yet
-                continue
-            raise
+    for module in COMMAND_MODULES:
         module.register(sub)
     return parser
 
