@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from agent.protocol.errors import UserError
-from fluidswarm.bench_record import (
+from fluidswarm.orchestration.bench_record import (
     BenchRecord,
     BenchRecordError,
     FailedRun,
@@ -50,8 +50,8 @@ def register(sub) -> None:
     p.add_argument(
         "--json",
         action="store_true",
-        help="print the bench's record (fluidswarm/bench_record.py BenchRecord, the object of results.json) "
-        "as one JSON object instead of key=value lines",
+        help="print the bench's record (fluidswarm/orchestration/bench_record.py BenchRecord, the object of "
+        "results.json) as one JSON object instead of key=value lines",
     )
     p.add_argument(
         "--readme",

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from fluidswarm.bench_record import BenchRecord, FailedRun, LockstepRun
+from fluidswarm.orchestration.bench_record import BenchRecord, FailedRun, LockstepRun
 
 pytestmark = pytest.mark.swarm  # starts agents, routers or the CLI (tests/conftest.py)
 

@@ -1,5 +1,5 @@
-"""The bench's record (fluidswarm/bench_record.py): results.json read and written back unchanged, every field
-checked on reading (one error naming the key), the key=value lines printed from the record."""
+"""The bench's record (fluidswarm/orchestration/bench_record.py): results.json read and written back unchanged,
+every field checked on reading (one error naming the key), the key=value lines printed from the record."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from fluidswarm.bench import print_lines
-from fluidswarm.bench_record import BenchRecord, BenchRecordError, FailedRun, Formation, LockstepRun
+from fluidswarm.orchestration.bench_record import BenchRecord, BenchRecordError, FailedRun, Formation, LockstepRun
 
 RESULTS = Path(__file__).resolve().parent.parent / "docs" / "benchmarks" / "results.json"
 

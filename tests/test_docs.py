@@ -1,5 +1,6 @@
 """Docs that cannot drift: the README's benchmark figures are written from docs/benchmarks/results.json
-(fluidswarm/bench_record.py `readme_section`, `fluidswarm bench --readme`), and this fails when they differ."""
+(fluidswarm/orchestration/bench_record.py `readme_section`, `fluidswarm bench --readme`), and this fails when they
+differ."""
 
 from __future__ import annotations
 
@@ -11,7 +12,13 @@ import pytest
 
 from agent.protocol.errors import UserError
 from fluidswarm.bench import FIT_MAX_N, write_readme
-from fluidswarm.bench_record import README_BEGIN, README_END, BenchRecord, readme_section, with_readme_section
+from fluidswarm.orchestration.bench_record import (
+    README_BEGIN,
+    README_END,
+    BenchRecord,
+    readme_section,
+    with_readme_section,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / "README.md"

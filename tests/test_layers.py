@@ -148,6 +148,23 @@ def test_no_import_cycle():
     assert not cycles, "import cycles:\n" + "\n".join(cycles)
 
 
+def grouped(edges: dict[str, list[tuple[str, int]]], group) -> dict[str, list[tuple[str, object]]]:
+    """The import graph of groups of modules (`group`: module -> its group), each edge with the import behind it."""
+    out: dict[str, list[tuple[str, object]]] = {}
+    for name, targets in edges.items():
+        for target, line in targets:
+            if group(name) != group(target):
+                out.setdefault(group(name), []).append((group(target), f"{name} -> {target}:{line}"))
+    return out
+
+
+def test_no_folder_cycle():
+    """Folders (packages) import each other in no loop either: each can be read, and moved, above the ones it uses."""
+    known, edges = graph()
+    cycles = find_cycles(grouped(edges, lambda m: m if known[m].name == "__init__.py" else m.rpartition(".")[0]), True)
+    assert not cycles, "folders that import each other:\n" + "\n".join(cycles)
+
+
 def test_the_checker_sees_function_level_and_relative_imports(tmp_path):
     """The graph must not miss an import hidden in a function (the agent ↔ coordinator cycle hid there)."""
     pkg = tmp_path / "agent"

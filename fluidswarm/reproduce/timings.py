@@ -10,7 +10,7 @@ from pathlib import Path
 from agent.sph.reference import VectorisedDriver
 from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.route import followers_for
-from fluidswarm.bench_record import BenchRecord
+from fluidswarm.orchestration.bench_record import BenchRecord
 from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 from fluidswarm.reproduce.gestures import INPUTS
 
