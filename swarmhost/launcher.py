@@ -361,6 +361,7 @@ def run_swarm(
     startup_timeout: float | None = None,
     run_timeout: float | None = None,
     on_started: Callable[[Launcher], None] | None = None,
+    before_start: Callable[[], None] | None = None,
     progress: Callable[[], None] | None = None,
     ids=None,
     swarm_ids=None,
@@ -374,7 +375,8 @@ def run_swarm(
     `ids` is the slice started on this host; `swarm_ids` the whole swarm, whose alive tokens the start
     barrier waits for (other hosts start the rest), so nobody steps before every subscriber is known;
     `report_ids`: other hosts' agents whose final reports this host's result holds too (a main host's
-    workers'; one that never comes, of a lost host, is left out).
+    workers'; one that never comes, of a lost host, is left out). `before_start` runs once every agent is
+    alive, before the start signal (what must be done before the first step, and may overlap the start-up).
     """
     own = launcher is None
     launcher = launcher or Launcher()
@@ -392,6 +394,8 @@ def run_swarm(
             launcher.spawn(spec)
         launcher.track_progress()
         launcher.wait_alive(everyone, budget)
+        if before_start is not None:
+            before_start()
         startup = time.monotonic() - t0
         t1 = time.monotonic()
         launcher.start()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import threading
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -61,9 +62,29 @@ def start_coordinator(run: Run, args: list[str]) -> subprocess.Popen:
 
 def command_plan(run: Run, plan: Plan) -> subprocess.Popen:
     """The run's coordinator, commanding `plan`: started, and handed the plan on the bus until it commands
-    (coordinator/handover.py hand_plan; one that fails first is its own one-line CoordinatorFailed)."""
+    (coordinator/handover.py hand_plan; one that fails first is its own one-line CoordinatorFailed).
+
+    The hand-over runs beside the recorder's and the agents' start-up (the coordinator's own start, ~0.8 s of
+    a 300-agent imitation, used to come before them); the swarm's first step waits for it (Run.before_start),
+    so no agent steps before the plan is commanded, as before."""
     proc = start_coordinator(run, ["--plan"])
-    handover.hand_plan(run.launcher.session, run.launcher.run, plan, proc, PLAN_SECONDS)
+    failed: list[Exception] = []
+
+    def hand() -> None:
+        try:
+            handover.hand_plan(run.launcher.session, run.launcher.run, plan, proc, PLAN_SECONDS)
+        except Exception as exc:  # noqa: BLE001  # re-raised on the caller's thread, before the first step
+            failed.append(exc)
+
+    handing = threading.Thread(target=hand, name="plan-handover", daemon=True)
+    handing.start()
+
+    def commanded() -> None:
+        handing.join()
+        if failed:
+            raise failed[0]
+
+    run.before_start(commanded)
     return proc
 
 

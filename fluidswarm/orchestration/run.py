@@ -199,6 +199,7 @@ class Run:
         self.plan: SwarmPlan = None  # type: ignore[assignment]  # set by swarm(), before anything reads it
         self.coordinator: subprocess.Popen | None = None
         self._on_start: list[Callable[[], None]] = []
+        self._before_start: list[Callable[[], None]] = []
         self._on_stop: list[Callable[[], None]] = []
         self._bar: Progress | None = None
         self._scratch: Path | None = None
@@ -306,6 +307,14 @@ class Run:
             self._scratch = Path(tempfile.mkdtemp(prefix="fluidswarm-run-"))
         return self._scratch
 
+    def before_start(self, fn: Callable[[], None]) -> None:
+        """Call `fn` once every agent is alive, before they are told to start (it may raise: the run ends)."""
+        self._before_start.append(fn)
+
+    def _before_starting(self) -> None:
+        for fn in self._before_start:
+            fn()
+
     def on_start(self, fn: Callable[[], None]) -> None:
         """Call `fn` when the agents have been told to start (watchers that follow the run)."""
         self._on_start.append(fn)
@@ -377,6 +386,7 @@ class Run:
             plan.steps,
             launcher=la,
             on_started=started,
+            before_start=self._before_starting,
             progress=self._progress,
             per_agent=plan.per_agent,
             ids=plan.ids,
