@@ -244,6 +244,33 @@ def test_a_finished_agents_leaving_is_not_a_death_and_agent_events_say_whose_the
     assert rec.rejected == 1
 
 
+def test_all_left_once_every_agent_left_with_its_report_and_its_last_step_is_written(recorder):
+    # What lets the recorder end without waiting out the quiet: nothing is on its way any more.
+    rec, clock, path = recorder
+    for s in range(5):
+        for j in range(3):
+            post(rec, j, s)
+    rec.pump(0.0)
+    assert not rec.all_left()  # every agent still alive
+    rec.heard_final(report(0, "done"), keys.final_key(RUN, 0), clock.t)
+    rec.heard_final(report(1, "stopped"), keys.final_key(RUN, 1), clock.t)
+    for j in range(3):
+        rec.heard_alive(keys.alive_key(RUN, j), False, clock.t)
+    rec.pump(0.0)
+    assert not rec.all_left()  # their last states may still be in a router's batch
+    clock.t += steps.BATCH_GRACE_SECONDS + 0.01
+    rec.pump(0.0)
+    assert not rec.all_left()  # agent 2 sent no report: its death waits for the report's grace
+    rec.heard_final(report(2, "done"), keys.final_key(RUN, 2), clock.t)
+    rec.pump(0.0)
+    assert rec.all_left()
+    rec.finish()
+    rec.writer.close()
+    events = {(e.kind, e.agent, e.step) for e in load_run(path, images=False).events if e.kind != "started"}
+    assert events == {("finished", 0, 5), ("stopped", 1, 5), ("finished", 2, 5)}
+    assert check(path)[0]
+
+
 def test_an_agent_that_rejoined_skipping_steps_is_recorded_away_for_them(recorder):
     rec, _clock, path = recorder
     for k in range(10):

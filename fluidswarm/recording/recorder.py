@@ -108,13 +108,23 @@ class Recorder(StepAssembly):
     def finish(self, quiet: float = FINISH_QUIET_SECONDS, limit: float = FINISH_LIMIT_SECONDS) -> None:
         """Write everything heard, the last states still in flight included: told to stop once the agents have
         reported, the recorder still has their last steps on the way (it runs a step or two behind at
-        N = 300), so it takes what arrives until `quiet` s pass without a message (at most `limit` s)."""
-        deadline = time.monotonic() + limit
-        while (left := deadline - time.monotonic()) > 0:
-            try:
-                self.handle(self.inbox.get(timeout=min(quiet, left)))
-            except queue.Empty:
+        N = 300), so it takes what arrives until `quiet` s pass without a message (at most `limit` s), or until
+        every agent has left with its report and every step is written (all_left: a run that ended as planned
+        has nothing more on its way, and its recorder need not wait out the quiet)."""
+        last = time.monotonic()
+        deadline = last + limit
+        while (now := time.monotonic()) < deadline and now - last < quiet:
+            self.tick(now)  # agents whose token went leave once their batches' grace is over, as in pump
+            if self.all_left():
                 break
+            try:
+                # woken at least every BATCH_GRACE_SECONDS: a leaver's grace ends without a message
+                self.handle(
+                    self.inbox.get(timeout=max(0.0, min(BATCH_GRACE_SECONDS, deadline - now, last + quiet - now)))
+                )
+                last = time.monotonic()
+            except queue.Empty:
+                pass
         for _ in range(self.inbox.qsize()):  # a run stopped mid-stream: what is queued now, not what follows
             self.handle(self.inbox.get_nowait())
         self.end(time.monotonic())

@@ -354,6 +354,19 @@ class StepAssembly:
             self.next_step += 1
             self._write_deaths(now)
 
+    def all_left(self) -> bool:
+        """Nothing the recording waits for is on its way: every agent heard of has left with its final report
+        (finished or stopped, its event written) and every step heard is written. An agent still alive, one
+        whose death is not yet said or a step still open keeps it false (the end then waits for quiet)."""
+        return (
+            bool(self.reported)
+            and not self.alive
+            and not self.joining
+            and not self.leaving
+            and not self.dead_at
+            and self.next_step > self.newest
+        )
+
     # --- time ----------------------------------------------------------------------------------------------
 
     def tick(self, now: float) -> None:
