@@ -17,14 +17,12 @@ from agent.protocol.command import GestureCommand
 from agent.sph.params import Border, SPHParams
 from agent.sph.particle import Control, initial_state
 from agent.sph.setups import Setup, lattice
-from coordinator.control.ann import ann_command
 from coordinator.control.fill import AREA_PER_PARTICLE as FILL_AREA
 from coordinator.control.fill import INITIAL_SPACING as FILL_SPACING
 from coordinator.control.fill import fill_command, material_zones, rest_density
 from coordinator.control.geometry import ImageToDomain
 from coordinator.control.material import ARM_BETA, ARM_MU, BETA, FINGER_BETA, FINGER_MU, MU
 from coordinator.control.observe import Observation, hand_label, is_clip, observe
-from coordinator.control.pca import pca_command
 from coordinator.control.region import (
     AREA_PER_PARTICLE,
     body_region_command,
@@ -130,8 +128,14 @@ def build_command(
         if obs.kind == "body":
             return body_region_command(obs.mask, obs.parts, transform, n_agents, seq=seq, gesture=obs.label)
         return region_command(obs.mask, transform, n_agents, seq=seq, gesture=obs.label[:64])
+    # pca and ann are imported when chosen: their classifiers pull in scipy.optimize and the thesis' network
+    # (~0.4 s), which every command line that plans an imitation paid before it started its router
     if kind is Controller.PCA:
+        from coordinator.control.pca import pca_command
+
         return pca_command(obs, transform, n_agents, seq=seq)
+    from coordinator.control.ann import ann_command
+
     return ann_command(obs, transform, n_agents, seq=seq)
 
 
