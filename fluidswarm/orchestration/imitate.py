@@ -33,7 +33,7 @@ from coordinator.control.settle import SettleRule, SettleWatch
 from fluidswarm.orchestration.run import Run, RunOptions, RunRecord, SwarmPlan, Sync, busy_with_failures
 from fluidswarm.orchestration.run_config import RunConfig
 from fluidswarm.recording.reader import recorded_fidelity
-from fluidswarm.recording.render import plot_formation
+from fluidswarm.recording.render import plot_formation, preload_figures
 from perception.io import InputError
 from perception.segmentation import SegmentationError
 from swarmhost.supervisor import die_with_parent
@@ -227,6 +227,7 @@ class FileImitation:
             )
             run.on_start(self.watch.start)
             run.on_stop(self.watch.stop)
+        run.on_stop(preload_figures)  # the formation picture's imports, while the processes stop
         first = im.command.classes[0].route[0]  # late joiners start at the palm / torso centre
         layout = None
         if (
