@@ -96,7 +96,9 @@ class Launcher:
     run: the run's name (default a fresh one); connect: a router elsewhere (tcp/HOST:PORT) instead of an
     embedded one listening on `listen`; secret: the run's command key (hex; default fresh); agent_timeout
     [s]: the neighbour timeout given to every agent; commands: the agents follow signed gesture commands
-    (they get the key); user/password/auth_file: credentials for a router elsewhere (docs/security.md)."""
+    (they get the key); user/password/auth_file: credentials for a router elsewhere (docs/security.md);
+    capacity: the agent ids an embedded router provisions (0..capacity-1; a run that knows its swarm and late
+    joiners gives their number: the router starts faster with fewer users)."""
 
     def __init__(
         self,
@@ -110,13 +112,14 @@ class Launcher:
         password: str = "",
         auth_file: str = "",
         commands: bool = False,
+        capacity: int = AGENT_CAPACITY,
     ):
         self.run = run or f"run-{uuid.uuid4().hex[:8]}"
         if not keys.valid_run_name(self.run):
             raise ValueError(f"run name {self.run!r}: use 1-64 letters, digits, '-' or '_'")
         self.secret = secret if secret is not None else secrets.token_hex(32)
         self.agent_timeout, self.commands, self.quiet = agent_timeout, commands, quiet
-        self.router = RouterHost(self.run, connect, listen, user, password, auth_file)
+        self.router = RouterHost(self.run, connect, listen, user, password, auth_file, capacity)
         self.endpoint, self.agent_endpoint = self.router.endpoint, self.router.agent_endpoint
         self.access, self.session = self.router.access, self.router.session
         self.swarm = Swarm(self.run, self.endpoint, self.session)

@@ -18,7 +18,7 @@ from dataclasses import astuple
 
 import zenoh
 
-from agent.protocol.access import LaunchAccess
+from agent.protocol.access import AGENT_CAPACITY, LaunchAccess
 from agent.protocol.errors import SwarmFailed
 from agent.protocol.session import LAUNCHER_CONNECT_TIMEOUT_MS, client_config, router_config_dict
 from swarmhost.relay import HostRelay
@@ -48,7 +48,9 @@ class RouterHost:
         user: str = "",
         password: str = "",
         auth_file: str = "",
+        capacity: int = AGENT_CAPACITY,
     ):
+        """`capacity`: an embedded router provisions agent ids 0..capacity-1 (LaunchAccess.embedded)."""
         self._socket_dir = None
         self.process: RouterProcess | None = None  # the compiled embedded router (per-process rights)
         if connect:
@@ -66,7 +68,7 @@ class RouterHost:
                 self._socket_dir = tempfile.mkdtemp(prefix="fluidswarm-")
                 self.agent_endpoint = f"unixsock-stream/{self._socket_dir}/router.sock"
                 listeners.append(self.agent_endpoint)
-            self.access = LaunchAccess.embedded()  # fresh credentials and per-process rights (docs/security.md)
+            self.access = LaunchAccess.embedded(capacity)  # fresh credentials and per-process rights (docs/security.md)
         try:
             if not connect:
                 # The compiled router, the launcher its client: under per-process rights every state passes

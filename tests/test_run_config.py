@@ -76,3 +76,23 @@ def test_launch_takes_sync_and_its_old_name_mode():
     assert parser.parse_args(["launch", "--sync", "async"]).sync == "async"
     assert parser.parse_args(["launch", "--mode", "async"]).sync == "async"
     assert parser.parse_args(["run", "demo_v_sign", "--sync", "async"]).sync == "async"
+
+
+def test_an_imitations_router_provisions_its_swarm_and_late_joiners_ids_only(monkeypatch):
+    # The embedded router's rules grow with its users (1280: ~0.3 s of every start): a run that knows its
+    # swarm provisions its ids, and the late joiners' its failures will start, no more.
+    from agent.protocol.access import AGENT_CAPACITY, LaunchAccess
+    from fluidswarm.orchestration.imitate import run_options
+    from fluidswarm.orchestration.run import RunOptions
+    from fluidswarm.scenario import Failure
+
+    monkeypatch.setenv("FLUIDSWARM_ACCESS", "acl")
+    assert run_options(RunConfig(agents=300)).capacity() == 300
+    joining = RunOptions(Recording(None, "x"), failures=(Failure("late_join", 10, count=4), Failure("kill", 5)))
+    assert RunOptions(Recording(None, "x"), swarm_size=20, failures=joining.failures).capacity() == 24
+    assert joining.capacity() == AGENT_CAPACITY  # a run that does not say: every id it may take
+    access = LaunchAccess.embedded(24)
+    assert access.capacity == 24 and len(access.acl["policies"]) == 24 + 3
+    access.env_for_agent(23)
+    with pytest.raises(ValueError, match=r"ids 0\.\.23 only"):
+        access.env_for_agent(24)

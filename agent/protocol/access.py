@@ -212,12 +212,15 @@ class LaunchAccess:
         self.state_key_ids = acl is not None or users_file_rights
 
     @classmethod
-    def embedded(cls) -> LaunchAccess:
+    def embedded(cls, capacity: int = AGENT_CAPACITY) -> LaunchAccess:
+        """An embedded router's access: agent ids 0..capacity-1 provisioned (a run that knows its swarm gives
+        its size: the router's rules grow with the users, ~0.25 ms each at its start)."""
         lvl = level()
         if lvl == "none":
             return cls(lambda user: None)
+        capacity = min(max(capacity, 1), AGENT_CAPACITY)
         key = RunKey()
-        creds = key.users(AGENT_CAPACITY)
+        creds = key.users(capacity)
         acl = acl_config([c.user for c in creds]) if lvl == "acl" else None
         # `own`: at acl the launcher is a client of its (compiled) router, with the launcher's credentials
         return cls(
@@ -225,7 +228,7 @@ class LaunchAccess:
             own=key.credential("launcher"),
             users_file=UsersFile(creds),
             acl=acl,
-            capacity=AGENT_CAPACITY,
+            capacity=capacity,
         )
 
     @classmethod

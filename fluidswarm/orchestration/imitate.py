@@ -305,6 +305,7 @@ def run_options(config: RunConfig, realtime: bool | None = None, progress: bool 
         progress=progress,
         access=config.access,
         realtime=config.realtime if realtime is None else realtime,
+        swarm_size=config.agents,
     )
 
 
