@@ -11,7 +11,7 @@ measured: docs/protocol.md, "Inside an agent process"); no other variable of our
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 
 from agent.records import native
@@ -114,7 +114,9 @@ class AgentSpec:
 
     def to_json(self) -> str:
         """The spec as the agent reads it; ValueError ("agent spec: <field> ...") if a field is malformed."""
-        return native.spec_encode(asdict(self))
+        # Its fields as they are, not dataclasses.asdict's deep copy of every list and dict (nothing nested is a
+        # dataclass): the copy was a third of a launcher's time per agent started (0.3 s of 300 spawns).
+        return native.spec_encode({f.name: getattr(self, f.name) for f in fields(self)})
 
     @classmethod
     def from_json(cls, text: str) -> AgentSpec:
