@@ -339,6 +339,10 @@ def _observe_stream(
     transform = None
     seq = 0
     observer = None
+    # The hand observer (its classifier and the modules it loads, ~0.2 s) is ready before the stream opens: a
+    # video file plays in real time from its open, and what loads after that is frames lost before the swarm's
+    # first command, and time the swarm does not get to form the later gestures.
+    hands = HandObserver() if subject in ("hand", "auto") else None
     with open_stream(source, stream_params, ros2_router) as stream:
 
         def frames():
@@ -353,7 +357,7 @@ def _observe_stream(
         source_frames = frames()
         first: list[np.ndarray] = []
         if subject == "auto":
-            hands = HandObserver()
+            assert hands is not None  # made above for "auto"
             for f in source_frames:
                 first.append(f)
                 if len(first) == AUTO_FRAMES:
@@ -362,7 +366,7 @@ def _observe_stream(
             observer = hands if subject == "hand" else LiveObserver(rule.window)
             log.write(Subject(subject, "auto", len(first)))
         else:
-            observer = HandObserver() if subject == "hand" else LiveObserver(rule.window)
+            observer = hands if hands is not None else LiveObserver(rule.window)
             log.write(Subject(subject, "given"))
         for frame in itertools.chain(first, source_frames):
             obs = observer.observe(frame)
