@@ -104,7 +104,7 @@ class RunOptions:
         """The agent ids the run's embedded router provisions: its swarm and late joiners (or all it may take)."""
         if self.swarm_size is None:
             return AGENT_CAPACITY
-        return self.swarm_size + sum(f.count for f in self.failures if getattr(f, "kind", "") == "late_join")
+        return self.swarm_size + sum(f.count for f in self.failures if f.kind == "late_join")
 
 
 @dataclass

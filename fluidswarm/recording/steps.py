@@ -355,9 +355,10 @@ class StepAssembly:
             self._write_deaths(now)
 
     def all_left(self) -> bool:
-        """Nothing the recording waits for is on its way: every agent heard of has left with its final report
-        (finished or stopped, its event written) and every step heard is written. An agent still alive, one
-        whose death is not yet said or a step still open keeps it false (the end then waits for quiet)."""
+        """Nothing the recording waits for is on its way: at least one agent reported its end, every agent heard
+        of has left (its finished, stopped or died event written) and every step heard is written. An agent still
+        alive, one whose leaving is not yet said or a step still open keeps it false (the end then waits for
+        quiet)."""
         return (
             bool(self.reported)
             and not self.alive
