@@ -248,12 +248,12 @@ def seen_note(obs: Observation, seq: int) -> Seen:
 
 def open_stream(source: str, params, ros2_router: str = ""):
     """The frames of `source`: a device, URL or file (perception/stream.py), or a ROS 2 image topic `ros2:/...`
-    through the router at `ros2_router` on the domain of ROS_DOMAIN_ID (fluidswarm/ros2/camera.py)."""
-    from fluidswarm.ros2.camera import Ros2FrameStream, is_ros2_source
+    through the router at `ros2_router` on the domain of ROS_DOMAIN_ID (ros2link/camera.py)."""
+    from ros2link.camera import Ros2FrameStream, is_ros2_source
 
     if not is_ros2_source(source):
         return FrameStream(source, params)
-    from fluidswarm.ros2.rmw import DEFAULT_ROUTER, domain_from_env
+    from ros2link.rmw import DEFAULT_ROUTER, domain_from_env
 
     try:
         domain = domain_from_env()

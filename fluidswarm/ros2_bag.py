@@ -25,8 +25,8 @@ from fluidswarm.recording import ros2_messages as m
 from fluidswarm.recording import schemas as sc
 from fluidswarm.recording.reader import Recording
 from fluidswarm.recording.writer import code_version
-from fluidswarm.ros2 import cdr
-from fluidswarm.ros2.rmw import KEEP_ALL, RELIABLE, TRANSIENT_LOCAL, Qos
+from ros2link import cdr
+from ros2link.rmw import KEEP_ALL, RELIABLE, TRANSIENT_LOCAL, Qos
 
 VERSION = 9  # rosbag2's metadata version (Jazzy)
 

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from fluidswarm.ros2.rmw import DEFAULT_ROUTER, check_endpoint, domain_from_env
+from ros2link.rmw import DEFAULT_ROUTER, check_endpoint, domain_from_env
 
 
 def add_ros2_arguments(parser) -> None:

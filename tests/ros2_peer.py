@@ -1,7 +1,7 @@
 """A stand-in for the ROS 2 side in tests (docs/ros2.md "What was verified here"): a plain Zenoh router in a
 process of its own where rmw_zenohd would be, and a peer that reads rmw_zenoh's format the way a ROS 2 node does,
 written here from rmw_zenoh's sources (liveliness_utils.cpp, attachment_helpers.cpp), not with the product's
-fluidswarm/ros2/rmw.py: tokens split by its key-expression indexes, the attachment unpacked by hand, the GID
+ros2link/rmw.py: tokens split by its key-expression indexes, the attachment unpacked by hand, the GID
 recomputed with XXH3-128, CDR decoded by rosbags."""
 
 from __future__ import annotations

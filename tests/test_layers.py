@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm")
 
 # Lowest first, each entry a package (a folder): a module belongs to the layer of its innermost listed folder
 # (agent/sph/ is physics, agent/ around it the compiled records); a module may import from its own layer and the
@@ -23,8 +23,11 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("physics", ("agent.sph",)),
     ("protocol", ("agent.protocol",)),
     ("perception", ("perception",)),
+    # the link to a ROS 2 system: rmw_zenoh's format, a node, the messages' codec, an image topic as perception's
+    # frame stream; below the coordinator (its camera) and the recorder (its bridge), which both use it
+    ("ros2 link", ("ros2link",)),
     ("control", ("coordinator.control",)),
-    ("processes", ("swarmhost", "coordinator", "fluidswarm.recording", "fluidswarm.ros2")),
+    ("processes", ("swarmhost", "coordinator", "fluidswarm.recording")),
     (
         "orchestration",
         ("fluidswarm.orchestration",),
@@ -163,6 +166,15 @@ def test_no_folder_cycle():
     known, edges = graph()
     cycles = find_cycles(grouped(edges, lambda m: m if known[m].name == "__init__.py" else m.rpartition(".")[0]), True)
     assert not cycles, "folders that import each other:\n" + "\n".join(cycles)
+
+
+def test_no_package_cycle():
+    """The top-level packages (agent, perception, ros2link, coordinator, swarmhost, fluidswarm) import each other in
+    no loop: each installs and reads on top of the ones it uses (coordinator <-> fluidswarm was the last loop, through
+    coordinator/camera.py's ROS 2 source, until the ROS 2 link left fluidswarm/ for ros2link/)."""
+    _, edges = graph()
+    cycles = find_cycles(grouped(edges, lambda m: m.partition(".")[0]), True)
+    assert not cycles, "packages that import each other:\n" + "\n".join(cycles)
 
 
 def test_the_checker_sees_function_level_and_relative_imports(tmp_path):

@@ -21,7 +21,7 @@ REPO = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())
 SETUPTOOLS = PYPROJECT["tool"]["setuptools"]
 EXTENSIONS = [e["target"] for e in PYPROJECT["tool"]["setuptools-rust"]["ext-modules"]]  # built by cargo
-ROOTS = ("agent", "swarmhost", "coordinator", "perception", "fluidswarm")
+ROOTS = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm")
 
 
 def package_dir(package: str) -> Path:

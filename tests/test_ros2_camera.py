@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 import pytest
 
-from fluidswarm.ros2.camera import compressed_to_bgr, image_to_bgr
+from ros2link.camera import compressed_to_bgr, image_to_bgr
 from swarmhost.router_host import free_port
 from tests.ros2_peer import TYPESTORE, Peer, start_router, stop_router
 from tests.swarm_helpers import wait_until

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fluidswarm.recording.reader import check, load_run
-from fluidswarm.ros2 import rmw
+from ros2link import rmw
 from swarmhost.router_host import free_port
 from tests.ros2_peer import TYPESTORE, Peer, decode, split_token, start_router, stop_router, unpack_attachment
 

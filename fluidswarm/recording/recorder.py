@@ -149,7 +149,7 @@ def obstacles_of(metadata: dict) -> tuple[Obstacle, ...]:
 def ros2_bridge(endpoint: str, robot: RobotModel):
     """The ROS 2 node of `--ros2 ENDPOINT` (fluidswarm/recording/ros2_bridge.py), on the domain of ROS_DOMAIN_ID."""
     from fluidswarm.recording.ros2_bridge import Bridge
-    from fluidswarm.ros2.rmw import domain_from_env
+    from ros2link.rmw import domain_from_env
 
     return Bridge(endpoint, domain_from_env(), robot.kind == RobotKind.UNICYCLE, print)
 

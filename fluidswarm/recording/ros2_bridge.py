@@ -3,7 +3,7 @@
 The recorder already has every step whole (fluidswarm/recording/steps.py) and every target, command and event
 (fluidswarm/recording/writer.py): it hands each to `Bridge` (its `tap`), which queues it and returns at once.
 One thread of the bridge turns them into ROS 2 messages (fluidswarm/recording/ros2_messages.py) and publishes them from
-the node `/fluidswarm` (fluidswarm/ros2/node.py) on the ROS 2 system's router.
+the node `/fluidswarm` (ros2link/node.py) on the ROS 2 system's router.
 
 A router that is absent at start or lost mid-run is one line (`note`); the recording never waits for the ROS 2
 side: a full queue drops the newest item (counted), a lost router's puts go nowhere, closing takes at most a
@@ -23,8 +23,8 @@ from agent.sph.obstacles import Obstacle
 from agent.sph.particle import HEADING, RHO, VX, VY, P, X, Y
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import ros2_messages as m
-from fluidswarm.ros2 import cdr
-from fluidswarm.ros2.node import Node
+from ros2link import cdr
+from ros2link.node import Node
 
 # How far the recorder may be ahead of the bridge before what it hands over is dropped (counted): steps (one
 # item a step, N rows: the memory) and everything (events are many and small: 300 `started` at a run's start)

@@ -18,8 +18,8 @@ import numpy as np
 from agent.sph.obstacles import Circle, Obstacle
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.schemas import LOG_LEVELS
-from fluidswarm.ros2.cdr import serialize, typestore
-from fluidswarm.ros2.rmw import KEEP_LAST, RELIABLE, TRANSIENT_LOCAL, VOLATILE, Qos
+from ros2link.cdr import serialize, typestore
+from ros2link.rmw import KEEP_LAST, RELIABLE, TRANSIENT_LOCAL, VOLATILE, Qos
 
 WORLD = "world"
 POSES, PARTICLES, TF, CLOCK, TARGET, COMMAND, EVENTS, IMAGE = (

@@ -2,7 +2,7 @@
 
 `Ros2FrameStream` is perception/stream.py's `FrameStream` for a topic: the same `next` (the newest frame, at most
 `fps` a second, a stall after `stall_seconds` without one), the same errors (`StreamError` naming the source and
-the problem). It joins the ROS 2 graph as the node `/fluidswarm_camera` (fluidswarm/ros2/node.py), finds the
+the problem). It joins the ROS 2 graph as the node `/fluidswarm_camera` (ros2link/node.py), finds the
 topic's publishers by their liveliness tokens, and subscribes to the key they name, with its own subscriber
 token (MS: without one `ros2 topic pub` and many drivers wait for a match forever).
 
@@ -22,10 +22,10 @@ from typing import Self
 import cv2
 import numpy as np
 
-from fluidswarm.ros2 import cdr, rmw
-from fluidswarm.ros2.node import Node
 from perception.io import MAX_PIXELS
 from perception.stream import StreamError, StreamParams
+from ros2link import cdr, rmw
+from ros2link.node import Node
 
 PREFIX = "ros2:"
 IMAGE, COMPRESSED = "sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage"

@@ -1,4 +1,4 @@
-"""One ROS 2 node on rmw_zenoh's bus (fluidswarm/ros2/rmw.py): its own Zenoh session to the ROS 2 system's router,
+"""One ROS 2 node on rmw_zenoh's bus (ros2link/rmw.py): its own Zenoh session to the ROS 2 system's router,
 its node token (NN), a token per publisher (MP) and subscriber (MS), samples with the attachment rmw_zenoh wants.
 
 One node for the whole run (`/fluidswarm`): hundreds of nodes hurt rmw_zenoh's graph (its issues #318, #408).
@@ -16,7 +16,7 @@ from collections.abc import Callable
 import zenoh
 import zenoh.ext
 
-from fluidswarm.ros2 import rmw
+from ros2link import rmw
 
 MISS_HEARTBEAT_S = 0.5  # rmw_zenoh's SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD (rmw_publisher_data.cpp), sporadic
 
