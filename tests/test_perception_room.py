@@ -149,7 +149,7 @@ def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_han
         hand = find_hand(frame, clf)
         assert hand.label == str(cls)
         assert iou(hand.mask, truth) >= 0.7  # measured 0.74 and 0.79: the silhouette GrabCut cut, as before
-        monkeypatch.setattr(hd, "steady_pose", lambda *a: False)
+        monkeypatch.setattr(hd, "steady_pose", lambda *a, **k: False)
         with pytest.raises(NoHandError, match=f"two readings differ \\(silhouette: [^{cls}], landmarks: {cls}\\)"):
             find_hand(frame, clf)
         monkeypatch.setattr(hd, "steady_pose", steady)
