@@ -27,7 +27,10 @@ Session 8: the rereadings also vouch for the silhouette (`confirms`): a disagree
 rereadings both name the silhouette's class with all votes is that class (the landmarks' first reading of a 6-9,
 its thumb on a fingertip, is often a 4; read mirrored it is often right). On the tuning composites (the
 benchmark's generator, seeds 0, 7, 13, 17; 560 hands) 5 more hands found, none wrong; the mirrored rereading
-alone would have found 12, one wrong.
+alone would have found 12, one wrong. And a palm hand's agreement read below MIRROR_BELOW must also be found in
+the 0.85 crop (`found_again`, one landmark pass): the two wrong agreements it refused there (a 1 read 0 on noise,
+its silhouette off the hand, IoU 0.08; a 6 read 4 on wood, IoU 0.40) lost the hand there (presence 0.12, 0.21),
+the right ones kept it (0.75 and more).
 What the rest of the pipeline consumes is unchanged: `Hand.mask` is the silhouette in the frame's pixels.
 """
 
@@ -41,7 +44,7 @@ from perception.eigen import EigenClassifier
 from perception.features import hand_hog
 from perception.hand_pose import PoseClassifier, pose_classifier
 from perception.hand_silhouette import clean_crop, silhouette
-from perception.landmarks import PRESENCE, HandLandmarks, find_landmarks, rereadings
+from perception.landmarks import PRESENCE, HandLandmarks, find_landmarks, landmark_box, landmarks_in, rereadings
 
 # Of the hand's box (the landmarks' bounding box): a silhouette covering less of it is GrabCut losing the
 # hand (a hand's silhouette covers 35-70 % of its landmarks' box; fingers spread: the least).
@@ -141,6 +144,8 @@ def learned_hand(
     if pose == sil and palm:
         if lm.presence < MIRROR_BELOW and not holds_mirrored(frame_bgr, lm, poses, pose):
             return f"the hand detector's landmarks name another class when read mirrored (class {pose})"
+        if lm.presence < MIRROR_BELOW and not found_again(frame_bgr, lm):
+            return f"the hand detector loses the hand when read again in a smaller crop (class {pose})"
         return LearnedHand(mask, sil, float(conf[0]), distance)
     if pose == sil:  # and no palm
         if votes >= 1.0 and steady_pose(frame_bgr, lm, poses, pose):
@@ -184,6 +189,13 @@ def holds_mirrored(frame_bgr: np.ndarray, lm: HandLandmarks, poses: PoseClassifi
     a vote or two elsewhere)."""
     again = rereadings(frame_bgr, lm.points, ())[0]
     return again.presence >= PRESENCE and poses.predict(again.points)[0] == pose
+
+
+def found_again(frame_bgr: np.ndarray, lm: HandLandmarks) -> bool:
+    """Whether the hand is found (hand presence >= PRESENCE) when read again in the smaller crops
+    (STEADY_SCALES' rereadings without the mirrored one)."""
+    cx, cy, side, rotation = landmark_box(lm.points)
+    return all(landmarks_in(frame_bgr, (cx, cy, side * s, rotation)).presence >= PRESENCE for s in STEADY_SCALES)
 
 
 def confirms(again: list[HandLandmarks], poses: PoseClassifier, label: str) -> bool:
