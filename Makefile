@@ -63,28 +63,28 @@ demo: install
 	$(BIN)/fluidswarm demo
 
 # make test first builds what the tests run, in two lanes side by side on the 2 cores (make -j2, each target's output
-# in one piece): pip (the Python dependencies, the extension module in target/check) beside cargo's programs. The rest
-# of the build has no test that waits for it but one: make lint (its clippy check build in target/check), the counting
-# router and the crate's tests (~490 s of CPU on a fresh clone) run in the background at the idle scheduling class
-# (chrt --idle: they get only the CPU no test wants, and a test's process takes a core from them the moment it wakes)
-# while the tests run: the alone run below keeps only half a core busy (zenoh's lease, connect timeouts, frozen
-# agents, clips played in real time), the shared run 1.6. setsid: their own process group, which an interrupted make
-# test stops. Their output is printed after the tests (one piece per target), then tests/test_router_traffic.py runs,
-# the one test that needs the counting router. The tests come in two runs (docs/development.md): the unit tests (no
-# processes) and the swarm tests that may share the machine, two at a time (pytest-xdist, worksteal: a worker that
-# runs out takes the other's queue); then the swarm tests marked `alone` (tests/conftest.py ALONE: they measure
-# stalls, recoveries and the realtime factor in wall seconds, or inject faults whose effect is timed), one at a time.
-# Every part runs even when another failed, and `make test` fails if any did. Each run lists its slowest ten.
+# in one piece): pip (the Python dependencies, the extension module in target/check) beside cargo's programs. Then the
+# swarm tests marked `alone` (tests/conftest.py ALONE: they measure stalls, recoveries and the realtime factor in wall
+# seconds, or inject faults whose effect is timed), one at a time. They keep only half a core busy (zenoh's lease,
+# connect timeouts, frozen agents, clips played in real time), so the rest of the build runs beside them in the
+# background at the idle scheduling class (chrt --idle: it gets only the CPU no test wants, and a test's process takes
+# a core from it the moment it wakes): make lint (its clippy check build in target/check), the counting router and the
+# crate's tests, ~500 s of CPU on a fresh clone, which no test but one waits for. setsid: their own process group,
+# which an interrupted make test stops. Their output is printed once they are done (one piece per target). Then the
+# unit tests (no processes) and the swarm tests that may share the machine, two at a time (pytest-xdist, worksteal: a
+# worker that runs out takes the other's queue), with both cores to themselves; then tests/test_router_traffic.py,
+# the one test that needs the counting router. Every part runs even when another failed, and `make test` fails if any
+# did. Each run lists its slowest ten (docs/development.md).
 IDLE := $(if $(shell command -v chrt 2>/dev/null),chrt --idle 0,nice -n 19)
 BUILD_LOG := $(VENV)/make-test-build.log
 test: netfault-tools
 	+$(MAKE) --no-print-directory -j2 --output-sync=target $(STAMP) $(AGENT_BIN)
 	setsid $(IDLE) $(MAKE) --no-print-directory -k -j2 --output-sync=target lint router-traffic crate-tests \
 		> $(BUILD_LOG) 2>&1 & build=$$!; trap 'kill -TERM -'$$build' 2>/dev/null; exit 130' INT TERM; \
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not alone and not every_scenario" --durations=10 \
-		--ignore tests/test_router_traffic.py tests; shared=$$?; \
 	$(BIN)/python -m pytest -q -m "alone and not every_scenario" --durations=10 tests; alone=$$?; \
 	wait $$build; built=$$?; cat $(BUILD_LOG); echo "make test: lint, counting router, crate tests: rc $$built"; \
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not alone and not every_scenario" --durations=10 \
+		--ignore tests/test_router_traffic.py tests; shared=$$?; \
 	traffic=1; test ! -x $(ROUTER_TRAFFIC_BIN) || { \
 		$(BIN)/python -m pytest -q tests/test_router_traffic.py; traffic=$$?; }; \
 	test $$shared -eq 0 -a $$alone -eq 0 -a $$built -eq 0 -a $$traffic -eq 0
