@@ -34,11 +34,11 @@ DATASETS = REPO.parent / "shared" / "datasets"
 _SWARM_PROGRAMS = (Path(sys.executable).name, "python", "python3", "fluidswarm-agent", "zenohd")
 
 
-# Swarm tests that run alone (marker `alone`): `make test` runs every other test two at a time (pytest-xdist,
-# -n 2), then these one after the other. Each here measures wall seconds or CPU (stalls, recovery and detection
-# times, the realtime factor, wake-ups, a bench), injects a fault whose effect depends on timing (a freeze, a
-# kill, a partition, a lost router or recorder, a late joiner). A key is a test file, a test function (all its
-# parameters) or one parametrized test; the reason says why.
+# Swarm tests that run alone (marker `alone`): `make test` runs these first, one after the other (only the idle
+# build beside them), then every other test two at a time (pytest-xdist, -n 2). Each here measures wall seconds
+# or CPU (stalls, recovery and detection times, the realtime factor, wake-ups, a bench), injects a fault whose
+# effect depends on timing (a freeze, a kill, a partition, a lost router or recorder, a late joiner). A key is a
+# test file, a test function (all its parameters) or one parametrized test; the reason says why.
 # test_scenarios.py's timed scenario runs (its timed(); the untimed ones count steps and share the machine)
 _SCENARIO = "tests/test_scenarios.py::test_scenario_runs_end_to_end_and_passes"
 _ASYNC_FAILURES = "async agents keep their own clocks while failures are injected"
