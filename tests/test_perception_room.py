@@ -88,7 +88,7 @@ def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf
 
     frame, truth = composite(held_out(shared_hands, 7), "stripes", 52)
     boxes = lmk.bottom_boxes(480, 640)
-    assert len(boxes) == 14 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
+    assert len(boxes) == 18 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
     hands = find_landmarks(frame)
     assert len(hands) == 1 and hands[0].palm_score == 0.0  # no palm: found by a bottom box
     pts = hands[0].points
