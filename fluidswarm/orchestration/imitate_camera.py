@@ -34,6 +34,7 @@ from coordinator.control.observe import Observation
 from fluidswarm.orchestration.imitate import run_options, score_formation, start_coordinator
 from fluidswarm.orchestration.run import Run, RunRecord, SwarmPlan
 from fluidswarm.orchestration.run_config import Access, Camera, RunConfig
+from fluidswarm.recording.render import preload_figures
 
 FIRST_SECONDS = 30.0  # s for the first observation beyond opening the stream (the background needs frames)
 END_LEAD_SECONDS = 0.5  # s of stepping between the coordinator's failure and the agents' common last step
@@ -121,6 +122,7 @@ class CameraImitation:
         self.watch = watch = CoordinatorWatch(run.launcher, coord)
         run.on_start(watch.start)
         run.on_stop(watch.stop)
+        run.on_stop(preload_figures)  # the formation picture's imports, while the processes stop (imitate.py)
         wait = FIRST_SECONDS + self.camera.stall_seconds
         seen = notes.wait_seen(
             coord,
