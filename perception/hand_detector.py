@@ -44,7 +44,7 @@ from perception.eigen import EigenClassifier
 from perception.features import hand_hog
 from perception.hand_pose import PoseClassifier, pose_classifier
 from perception.hand_silhouette import clean_crop, silhouette
-from perception.landmarks import PRESENCE, HandLandmarks, find_landmarks, landmark_box, landmarks_in, rereadings
+from perception.landmarks import PRESENCE, HandLandmarks, find_landmarks, rereadings
 
 # Of the hand's box (the landmarks' bounding box): a silhouette covering less of it is GrabCut losing the
 # hand (a hand's silhouette covers 35-70 % of its landmarks' box; fingers spread: the least).
@@ -194,8 +194,7 @@ def holds_mirrored(frame_bgr: np.ndarray, lm: HandLandmarks, poses: PoseClassifi
 def found_again(frame_bgr: np.ndarray, lm: HandLandmarks) -> bool:
     """Whether the hand is found (hand presence >= PRESENCE) when read again in the smaller crops
     (STEADY_SCALES' rereadings without the mirrored one)."""
-    cx, cy, side, rotation = landmark_box(lm.points)
-    return all(landmarks_in(frame_bgr, (cx, cy, side * s, rotation)).presence >= PRESENCE for s in STEADY_SCALES)
+    return all(a.presence >= PRESENCE for a in rereadings(frame_bgr, lm.points, STEADY_SCALES, mirrored=False))
 
 
 def confirms(again: list[HandLandmarks], poses: PoseClassifier, label: str) -> bool:

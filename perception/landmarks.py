@@ -220,15 +220,15 @@ def landmark_box(points: np.ndarray) -> tuple[float, float, float, float]:
 
 
 def rereadings(
-    image_bgr: np.ndarray, points: np.ndarray, scales: tuple[float, ...] = REREAD_SCALES
+    image_bgr: np.ndarray, points: np.ndarray, scales: tuple[float, ...] = REREAD_SCALES, mirrored: bool = True
 ) -> list[HandLandmarks]:
     """The same hand read again in other crops round its landmarks `points` (test-time augmentation): the
-    tracking box (`landmark_box`) mirrored, and that box REREAD_SCALES times its size. A hand's landmarks
-    barely move between them; landmarks the model fitted to a wall's pattern or to a half-seen hand move
-    (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts only if every
-    rereading gives it). 1 + len(scales) landmark passes (~4 ms each)."""
+    tracking box (`landmark_box`) mirrored (unless `mirrored` is False), and that box REREAD_SCALES times its
+    size. A hand's landmarks barely move between them; landmarks the model fitted to a wall's pattern or to a
+    half-seen hand move (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts
+    only if every rereading gives it). mirrored + len(scales) landmark passes (~4 ms each)."""
     cx, cy, side, rotation = landmark_box(points)
-    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), mirrored=True)]
+    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), mirrored=True)] if mirrored else []
     for scale in scales:
         out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation)))
     return out
