@@ -85,6 +85,13 @@ class StepAssembly:
     def t(self, step: int) -> float:
         return max(step, 0) * self.dt
 
+    def _agent_event(self, j: int, step: int, kind: str, words: str, at: int | None = None) -> None:
+        """Agent j's lifecycle event `kind` at `step` (timed at step `at`, `step` when not given): "agent J WORDS",
+        a warning when it died, else info."""
+        level = "warning" if kind == "died" else "info"
+        t = self.t(step if at is None else at)
+        self.writer.write_event(t, level, f"agent/{j}", f"agent {j} {words}", kind=kind, agent=j, step=step)
+
     def realtime_factor(self) -> float | None:
         """Simulated seconds / wall seconds from the first step seen to the newest (as the launcher's pacer
         measures it, from its own sightings): 1.0 keeps pace with the wall clock; None before two steps."""
@@ -133,15 +140,7 @@ class StepAssembly:
                 self.joining.add(j)
             elif j not in self.alive:
                 self.alive.add(j)
-                self.writer.write_event(
-                    self.t(self.next_step),
-                    "info",
-                    f"agent/{j}",
-                    f"agent {j} started",
-                    kind="started",
-                    agent=j,
-                    step=self.next_step if self.newest >= 0 else 0,
-                )
+                self._agent_event(j, self.next_step if self.newest >= 0 else 0, "started", "started", self.next_step)
         elif j in self.joining:
             self.joining.discard(j)
         elif j in self.alive:
@@ -190,15 +189,7 @@ class StepAssembly:
         if j in self.joining:
             self.joining.discard(j)
             self.alive.add(j)
-            self.writer.write_event(
-                self.t(step),
-                "info",
-                f"agent/{j}",
-                f"agent {j} joined at step {step}",
-                kind="started",
-                agent=j,
-                step=step,
-            )
+            self._agent_event(j, step, "started", f"joined at step {step}")
         if step not in self.pending:
             self.first_seen[step] = seen = self.last_message  # when this state came
             if self.span is None:
@@ -211,9 +202,7 @@ class StepAssembly:
         self.heard_at[j] = self.last_message
         if j in self.stopped:
             self.stopped.discard(j)
-            self.writer.write_event(
-                self.t(step), "info", f"agent/{j}", f"agent {j} reports again", kind="started", agent=j, step=step
-            )
+            self._agent_event(j, step, "started", "reports again")
 
     def _take_leavers(self, now: float, force: bool = False) -> None:
         """The agents whose token went BATCH_GRACE_SECONDS ago (all of them with `force`) leave the swarm."""
@@ -239,25 +228,9 @@ class StepAssembly:
             self.gone_at.pop(j, None)
             if left is not None:
                 kind, words = left
-                self.writer.write_event(
-                    self.t(first_missing),
-                    "info",
-                    f"agent/{j}",
-                    f"agent {j} {words}",
-                    kind=kind,
-                    agent=j,
-                    step=first_missing,
-                )
+                self._agent_event(j, first_missing, kind, words)
             else:
-                self.writer.write_event(
-                    self.t(first_missing),
-                    "warning",
-                    f"agent/{j}",
-                    f"agent {j} died",
-                    kind="died",
-                    agent=j,
-                    step=first_missing,
-                )
+                self._agent_event(j, first_missing, "died", "died")
 
     def _expected_at(self, step: int) -> set[int]:
         dying = {j for j, s in self.dead_at.items() if step < s}
@@ -279,15 +252,7 @@ class StepAssembly:
         for j in missing:
             if self.last_step.get(j, -1) < step:  # it stopped reporting: frozen or cut off
                 self.stopped.add(j)
-                self.writer.write_event(
-                    self.t(step),
-                    "warning",
-                    f"agent/{j}",
-                    f"agent {j} stopped reporting (frozen?)",
-                    kind="died",
-                    agent=j,
-                    step=step,
-                )
+                self._agent_event(j, step, "died", "stopped reporting (frozen?)")
             elif j not in self.skipping:
                 # It reported later steps but not this one: it froze and rejoined at the swarm's step
                 # (docs/protocol.md), skipping the steps between; it is away from here to its next state.
@@ -295,24 +260,8 @@ class StepAssembly:
                 if back is None:
                     continue
                 self.skipping[j] = back
-                self.writer.write_event(
-                    self.t(step),
-                    "warning",
-                    f"agent/{j}",
-                    f"agent {j} skipped steps {step}..{back - 1} (frozen, rejoined)",
-                    kind="died",
-                    agent=j,
-                    step=step,
-                )
-                self.writer.write_event(
-                    self.t(back),
-                    "info",
-                    f"agent/{j}",
-                    f"agent {j} reports again at step {back}",
-                    kind="started",
-                    agent=j,
-                    step=back,
-                )
+                self._agent_event(j, step, "died", f"skipped steps {step}..{back - 1} (frozen, rejoined)")
+                self._agent_event(j, back, "started", f"reports again at step {back}")
         for j in [j for j, back in self.skipping.items() if back <= step]:
             del self.skipping[j]
         if not have:
