@@ -5,7 +5,7 @@ Used through fluidswarm/orchestration/run.py by `fluidswarm launch`, `verify`, `
 
     swarmhost/router_host.py       the run's Zenoh session: an embedded router (at level acl the compiled one,
                                swarmhost/router_process.py, with the state relay), or a client of one elsewhere
-    swarmhost/relay.py             the relay of another host's router, for a launcher that is its client (multi-host)
+    swarmhost/host_relay.py        the relay of another host's router, for a launcher that is its client (multi-host)
     swarmhost/supervisor.py        the agent processes: start, alive tokens, final reports, stop
     swarmhost/pacing.py            the run's progress (steps seen) and its pacing clock, ctl/end and ctl/gone
     swarmhost/recorder_process.py  the MCAP recorder process

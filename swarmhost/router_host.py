@@ -5,7 +5,7 @@ the router gets the run's fresh credentials and per-process rights (agent/protoc
 docs/security.md); as a client the launcher uses the credentials it was given. The embedded router is the
 compiled one (swarmhost/router_process.py) at every access level, and the launcher is its client; under
 per-process rights (level acl, the default) its relay puts each state on its cell. A launcher that is a
-client of another host's router (`fluidswarm router`) asks that router's relay (swarmhost/relay.py).
+client of another host's router (`fluidswarm router`) asks that router's relay (swarmhost/host_relay.py).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import zenoh
 from agent.protocol.access import AGENT_CAPACITY, LaunchAccess
 from agent.protocol.errors import SwarmFailed
 from agent.protocol.session import LAUNCHER_CONNECT_TIMEOUT_MS, client_config, router_config_dict
-from swarmhost.relay import HostRelay
+from swarmhost.host_relay import HostRelay
 from swarmhost.router_process import CompiledRelay, RouterProcess
 
 # How local agents reach the embedded router: "unix" (a unix socket) or "tcp" (loopback).

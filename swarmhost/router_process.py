@@ -2,7 +2,7 @@
 `fluidswarm-router` execs under its own name, agent/native/src/router_main.rs), with the state relay on the
 router's own session (agent/native/src/relay.rs): every launcher's embedded router (`RouterProcess(run, …)`),
 and a host's router of a multi-host swarm (`RouterProcess(None, …)`: `fluidswarm router`, whose relay the
-launchers of its host ask over Zenoh, swarmhost/relay.py).
+launchers of its host ask over Zenoh, swarmhost/host_relay.py).
 
 Why a process of its own: under per-process rights every state passes the relay (its sender's id key in, its
 cell's key out). On the launcher's zenoh-python session that cost a Python hand-over per state (~3 s of launcher
@@ -181,7 +181,7 @@ class RouterProcess:
 
 class CompiledRelay:
     """The relay inside the launcher's embedded router, asked over its stdin: `add`, `rejected`, `close` (as
-    swarmhost/relay.py's HostRelay, the relay of another host's router)."""
+    swarmhost/host_relay.py's HostRelay, the relay of another host's router)."""
 
     def __init__(self, router: RouterProcess):
         self._router = router

@@ -1,6 +1,6 @@
 """The state relay of the compiled router with real Zenoh sessions — a launcher's embedded router (asked over its
 stdin, swarmhost/router_process.py) and a host's router of a multi-host run (`fluidswarm router`: asked over
-Zenoh by the launcher that is its client, swarmhost/relay.py) — and a client that puts on an agent's id key and
+Zenoh by the launcher that is its client, swarmhost/host_relay.py) — and a client that puts on an agent's id key and
 listens on the cell keys, as agents do under per-process rights."""
 
 import contextlib
@@ -16,7 +16,7 @@ from agent.protocol import keys
 from agent.protocol.session import client_config, router_config_dict
 from agent.protocol.wire import decode_state, encode_state, peek_id_position
 from agent.sph.particle import NFIELDS
-from swarmhost.relay import HostRelay
+from swarmhost.host_relay import HostRelay
 from swarmhost.router_host import free_port
 from swarmhost.router_process import RouterFailed, RouterProcess
 from tests.swarm_helpers import wait_until
@@ -117,7 +117,7 @@ def test_a_host_router_answers_only_its_own_clients_runs_and_a_plain_router_is_n
     plain = zenoh.open(_plain_router_config(plain_endpoint))  # a Zenoh router that is not fluidswarm's
     launcher = zenoh.open(client_config([plain_endpoint]))
     try:
-        from swarmhost import relay as relay_module
+        from swarmhost import host_relay as relay_module
 
         relay_module.REQUEST_TIMEOUT, timeout = 1.0, relay_module.REQUEST_TIMEOUT
         try:
