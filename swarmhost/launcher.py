@@ -41,7 +41,7 @@ from agent.sph.particle import Control, initial_state
 from swarmhost.helpers import Helpers
 from swarmhost.initial_neighbours import initial_neighbours
 from swarmhost.pacing import Pacer, Share
-from swarmhost.recorder_process import RecorderProcess
+from swarmhost.recorder_process import RecorderInputs, RecorderProcess
 from swarmhost.router_host import RouterHost
 from swarmhost.router_process import CompiledRelay
 from swarmhost.supervisor import Supervisor, Swarm
@@ -204,27 +204,12 @@ class Launcher:
         path: str,
         metadata: dict,
         dt: float,
+        inputs: RecorderInputs = RecorderInputs(),
         timeout: float = 30.0,
-        target: str = "",
-        image: str = "",
-        live: str = "",
-        coordinator_notes: tuple[str, ...] | None = None,
-        ros2: str = "",
     ):
         if self._events is None:
             self._events = Path(tempfile.mkdtemp(prefix="fluidswarm-launcher-"))
-        proc = self.recorder.start(
-            path,
-            metadata,
-            dt,
-            timeout,
-            target,
-            image,
-            live,
-            coordinator_notes,
-            launcher_events=str(self._events),
-            ros2=ros2,
-        )
+        proc = self.recorder.start(path, metadata, dt, inputs, str(self._events), timeout)
         self.helpers.watch(f"recorder (pid {proc.pid}, writing {path})", proc, self.recorder.last_words)
         return proc
 

@@ -8,12 +8,28 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
 from agent.protocol import keys
 from agent.protocol.errors import SwarmFailed, SwarmTimeout, UserError
 from swarmhost.supervisor import die_with_parent, stop_process
+
+
+@dataclass(frozen=True)
+class RecorderInputs:
+    """What a recording holds besides the run's messages, and where else the run goes: `target` (.npz mask +
+    transform) and `image` (.jpg) written into the file; `live` (HOST:PORT) also serves the run over Foxglove
+    WebSocket; `coordinator_notes`: follow a camera coordinator's notes on the bus (the missing notes said before
+    it started: written at t = 0); `ros2`: the ROS 2 router's endpoint, the run also published there
+    (fluidswarm/recording/ros2_bridge.py)."""
+
+    target: str = ""
+    image: str = ""
+    live: str = ""
+    coordinator_notes: tuple[str, ...] | None = None
+    ros2: str = ""
 
 
 class RecorderProcess:
@@ -31,21 +47,13 @@ class RecorderProcess:
         path: str,
         metadata: dict,
         dt: float,
-        timeout: float = 30.0,
-        target: str = "",
-        image: str = "",
-        live: str = "",
-        coordinator_notes: tuple[str, ...] | None = None,
+        inputs: RecorderInputs = RecorderInputs(),
         launcher_events: str = "",
-        ros2: str = "",
+        timeout: float = 30.0,
     ) -> subprocess.Popen:
         """Start recording to `path` and wait until the recorder's subscribers are declared (it then shows a
-        liveliness token), so it misses no step. `target` (.npz mask + transform) and `image` (.jpg) are
-        written into the file; `live` (HOST:PORT) also serves the run over Foxglove WebSocket;
-        `coordinator_notes`: follow a camera coordinator's notes on the bus (the missing notes said before it
-        started: written at t = 0), `launcher_events`: the launcher's events folder, followed
-        (recording/coordinator_events.py); `ros2`: the ROS 2 router's endpoint, the run also published there
-        (fluidswarm/recording/ros2_bridge.py)."""
+        liveliness token), so it misses no step. `inputs`: what else it writes and follows (RecorderInputs);
+        `launcher_events`: the launcher's events folder, followed (recording/coordinator_events.py)."""
         check_writable(Path(path))
         meta = dict(metadata)
         meta.setdefault("run", self.run)
@@ -68,18 +76,18 @@ class RecorderProcess:
             "--state-keys",
             "id" if self.id_keys else "cell",
         ]
-        if target:
-            cmd += ["--target", target]
-        if image:
-            cmd += ["--image", image]
-        if live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
-            cmd += ["--live", live]
-        if coordinator_notes is not None:
-            cmd += ["--coordinator-notes", json.dumps(list(coordinator_notes))]
+        if inputs.target:
+            cmd += ["--target", inputs.target]
+        if inputs.image:
+            cmd += ["--image", inputs.image]
+        if inputs.live:  # HOST:PORT of its Foxglove WebSocket server (fluidswarm/recording/live.py)
+            cmd += ["--live", inputs.live]
+        if inputs.coordinator_notes is not None:
+            cmd += ["--coordinator-notes", json.dumps(list(inputs.coordinator_notes))]
         if launcher_events:
             cmd += ["--launcher-events", launcher_events]
-        if ros2:
-            cmd += ["--ros2", ros2]
+        if inputs.ros2:
+            cmd += ["--ros2", inputs.ros2]
         self.proc = subprocess.Popen(
             cmd,
             stdout=out,

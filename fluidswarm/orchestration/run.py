@@ -39,6 +39,7 @@ from fluidswarm.orchestration.run_config import Access, Recording, Sync
 from fluidswarm.recording.progress import Progress
 from swarmhost.failures import FailureInjector
 from swarmhost.launcher import Launcher, SwarmResult, run_swarm
+from swarmhost.recorder_process import RecorderInputs
 from swarmhost.supervisor import stop_process
 
 if TYPE_CHECKING:
@@ -356,16 +357,9 @@ class Run:
             self.mcap = Path(self.options.recording.out) / f"{self.options.recording.name}.mcap"
         else:
             return None
-        self.launcher.start_recorder(
-            str(self.mcap),
-            metadata,
-            dt,
-            target=target,
-            image=image,
-            live=self.options.recording.live,
-            coordinator_notes=coordinator_notes,
-            ros2=self.options.recording.ros2,
-        )
+        recording = self.options.recording
+        inputs = RecorderInputs(target, image, recording.live, coordinator_notes, recording.ros2)
+        self.launcher.start_recorder(str(self.mcap), metadata, dt, inputs)
         return self.mcap
 
     def swarm(self, plan: SwarmPlan) -> SwarmResult:
