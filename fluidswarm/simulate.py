@@ -5,8 +5,9 @@ from __future__ import annotations
 import time
 
 from agent.protocol.errors import UserError
+from agent.sph.params import SPHParams
 from agent.sph.reference import VectorisedDriver
-from agent.sph.setups import branching
+from agent.sph.setups import BRANCHING_BETA_MIDDLE, branching
 from fluidswarm.recording.render import plot_formation
 
 
@@ -15,8 +16,8 @@ def register(sub) -> None:
     p.add_argument("--out", default="out/simulate.png", help="PNG of the final state (default: %(default)s)")
     p.add_argument("-n", "--particles", type=int, default=200, help="number of particles (default: %(default)s)")
     p.add_argument("--steps", type=int, default=800, help="time steps (default: %(default)s)")
-    p.add_argument("--beta-middle", type=float, default=20.0)
-    p.add_argument("--beta-edge", type=float, default=2.0)
+    p.add_argument("--beta-middle", type=float, default=BRANCHING_BETA_MIDDLE)
+    p.add_argument("--beta-edge", type=float, default=SPHParams.beta)  # the edges are the fluid itself
     p.set_defaults(func=run)
 
 

@@ -26,6 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from fluidswarm.orchestration.run_config import AGENTS
 from perception.io import load_frames
 
 SHARED = ROOT.parent / "shared" / "datasets"
@@ -85,7 +86,7 @@ def main() -> int:
     ap.add_argument("kind", choices=("hands", "bodies"))
     ap.add_argument("--per-class", type=int, default=5)
     ap.add_argument("--frames-per-clip", type=int, default=2)
-    ap.add_argument("--agents", type=int, default=60)
+    ap.add_argument("--agents", type=int, default=AGENTS)
     args = ap.parse_args()
     if not SHARED.is_dir():
         print(f"fill_table: {SHARED}: not a directory (the shared data sets)", file=sys.stderr)

@@ -75,9 +75,12 @@ def lattice(n: int, columns: int, spacing: float = 1.0, origin: tuple[float, flo
     return np.stack([origin[0] + spacing * (k % columns), origin[1] + spacing * (k // columns)], axis=1).astype(float)
 
 
+BRANCHING_BETA_MIDDLE = 20.0  # N/m: the branching experiment's stiffer middle band (thesis §4.6)
+
+
 def branching(
     n: int = 200,
-    beta_middle: float = 20.0,
+    beta_middle: float = BRANCHING_BETA_MIDDLE,
     beta_edge: float | None = None,
     rows: int = 10,
     speed: float = 1.0,

@@ -297,12 +297,8 @@ def border_freeze(ctx: Context, g: Group) -> None:
     n = 100 if ctx.quick else 200
     steps = ctx.steps(800, 300)
     top = 9.0 + 3.0  # the block's rows are y = 0..9: borders 3 m beyond its sides
-    setup = branching(
-        n,
-        beta_middle=20.0,
-        beta_edge=2.0,
-        params=SPHParams(drag=0.0, domain=(-20.0, 100.0, -3.0, top), border=Border.FREEZE),
-    )
+    # branching's own stiffnesses: the middle band's 20 N/m, the edges the fluid's (SPHParams.beta, 2 N/m)
+    setup = branching(n, params=SPHParams(drag=0.0, domain=(-20.0, 100.0, -3.0, top), border=Border.FREEZE))
     r = record(setup, steps)
     frozen = r.final[:, FROZEN] != 0
     share = {k: float(frozen[np.isin(setup.classes, c)].mean()) for k, c in (("middle", MIDDLE), ("edges", EDGES))}
