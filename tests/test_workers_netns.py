@@ -72,13 +72,13 @@ def three(tmp_path):
         h.close()
 
 
-def _start(three, tmp_path: Path, run: str):
-    """imitate on A with two workers, B's and C's: (main, {host: worker})."""
+def _start(three, tmp_path: Path, run: str, steps: tuple[str, ...] = ()):
+    """imitate on A with two workers, B's and C's (`steps`: imitate's --steps, if given): (main, {host: worker})."""
     out = tmp_path / run
     main = three.popen(
         "a",
         FS
-        + ["imitate", str(PHOTO), "--agents", str(AGENTS), "--out", str(out), "--json"]
+        + ["imitate", str(PHOTO), "--agents", str(AGENTS), "--out", str(out), "--json", *steps]
         + ["--connect", three.endpoint["a"], "--run", run, "--workers", "2"],
         env=three.env,
         **KW,
@@ -124,8 +124,10 @@ def test_an_imitation_over_three_hosts_finishes_every_agent_then_survives_losing
     checked = _check(Path(record["mcap"]))
     assert checked.returncode == 0 and "complete=true" in checked.stdout, checked.stdout + checked.stderr
 
-    # Host C's router killed once the swarm steps: A and B finish, the loss named with C's agents.
-    main, workers, out = _start(three, tmp_path, "cut")
+    # Host C's router killed once the swarm steps: A and B finish, the loss named with C's agents. 250 steps, not
+    # the imitation's 700: the swarm cannot step past C's held clock before C is dropped (PACE_SILENCE, 5 s; seen
+    # at step 71), and what it forms after that is not this run's question (700 steps: ~8 s more, same asserts).
+    main, workers, out = _start(three, tmp_path, "cut", ("--steps", "250"))
     shares = _shares(workers)
 
     wait_recorded_steps(lambda: next(out.glob("*.mcap"), None), 40, main, 240)
