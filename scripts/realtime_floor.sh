@@ -15,7 +15,7 @@ export FLUIDSWARM_ROUTER_BIN=${FLUIDSWARM_ROUTER_BIN:-$target/release/fluidswarm
 export PYTHONPATH=$PWD${PYTHONPATH:+:$PYTHONPATH}
 bare() {
   echo "$(date -u +%H:%M:%S) ${FLUIDSWARM_ACCESS:+FLUIDSWARM_ACCESS=$FLUIDSWARM_ACCESS }${BARE_RUNTIME:+BARE_RUNTIME=$BARE_RUNTIME }$*"
-  "$PY" scripts/bare_exchange.py "$@"
+  "$PY" scripts/bare_exchange_launch.py "$@"
 }
 echo "# $(date -u +%Y-%m-%dT%H:%MZ) $(nproc) cores; git $(git rev-parse --short HEAD); $(uptime)"
 

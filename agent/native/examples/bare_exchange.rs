@@ -1,5 +1,5 @@
 //! One agent of the bare lockstep exchange (docs/benchmarks/realtime.md, "The floor"): the agent's Zenoh
-//! traffic without its physics or protocol. scripts/bare_exchange.py starts N of them on a lattice, one per
+//! traffic without its physics or protocol. scripts/bare_exchange_launch.py starts N of them on a lattice, one per
 //! cell of side 1, against the production router at the default access level.
 //!
 //!     bare_exchange ENDPOINT RUN ID N RADIUS ROUNDS IDKEYS

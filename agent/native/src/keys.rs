@@ -45,7 +45,7 @@ pub fn cell_of(x: f64, y: f64, cell: f64) -> (i64, i64) {
 
 /// The key an agent puts its states on under per-process rights: one exact key for its whole life, carrying
 /// its id, so the router's access control lets each agent publish only its own states (the launcher's relay
-/// puts them again on their cell's key, swarmhost/relay.py).
+/// puts them again on their cell's key: relay.rs).
 pub fn state_key(run: &str, id: u32) -> String {
     format!("{PREFIX}/{run}/state/{}", id_chunk(id))
 }

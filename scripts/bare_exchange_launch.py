@@ -5,7 +5,7 @@ production router (fluidswarm-router) with the launcher's configuration at the a
 $FLUIDSWARM_ACCESS (default acl: users file, access-control rules, the relay re-putting each state on its cell).
 No physics, no protocol, no launcher pacing, no recorder: what the traffic alone costs.
 
-    .venv/bin/python scripts/bare_exchange.py N ROUNDS RADIUS [--agent-set 'path=json5;...'] [--router-set JSON]
+    .venv/bin/python scripts/bare_exchange_launch.py N ROUNDS RADIUS [--agent-set 'path=json5;...'] [--router-set JSON]
 
 --agent-set: extra Zenoh settings of every agent (e.g. 'transport/link/tx/queue/batching/enabled=false');
 --router-set: extra router settings as a JSON object of path -> value (e.g.
