@@ -35,10 +35,10 @@ def hand_mask(image_bgr: np.ndarray) -> np.ndarray:
         raise SegmentationError("empty image")
     img = image_bgr if image_bgr.ndim == 3 else cv2.cvtColor(image_bgr, cv2.COLOR_GRAY2BGR)
     hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
-    sat = hsv[..., 1].astype(np.float32)
-    dark = 255.0 - hsv[..., 2].astype(np.float32)
     # Vignetting darkens the corners but leaves them grey: saturation carries most of the weight.
-    score = cv2.GaussianBlur(0.75 * sat + 0.25 * dark, (3, 3), 0)
+    # 0.75 saturation + 0.25 darkness (255 - value), in one pass (exact: quarters of 8-bit values)
+    blend = cv2.addWeighted(hsv[..., 1], 0.75, hsv[..., 2], -0.25, 63.75, dtype=cv2.CV_32F)
+    score = cv2.GaussianBlur(blend, (3, 3), 0)
     if float(score.max() - score.min()) < 12.0:
         raise SegmentationError("no foreground: the image is blank (uniform)")
     # cv2's stubs require dst; the binding takes None (a new array)
@@ -75,23 +75,34 @@ def _grow_parts(saturation: np.ndarray, core: np.ndarray, k: int) -> np.ndarray:
     """`core` (uint8 0/1) with the thick, saturated-enough parts next to it added, as a filled bool mask."""
     if core.all():
         return core.astype(bool)
-    sat = cv2.GaussianBlur(saturation, (3, 3), 0).astype(np.float32)
-    wall, skin = float(np.median(sat[core == 0])), float(np.median(sat[core > 0]))
+    sat = cv2.GaussianBlur(saturation, (3, 3), 0)  # uint8 (what np.median of its copies as float gave, exactly)
+    wall, skin = _median_u8(sat, 1 - core), _median_u8(sat, core)
     low = (sat > wall + GROW_SATURATION * (skin - wall)).astype(np.uint8) & (1 - core)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
     extra = cv2.morphologyEx(low, cv2.MORPH_OPEN, kernel)  # thin rims along the core's edge go
     near = cv2.dilate(core, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k + 2, k + 2)))
-    n, labels, stats, _c = cv2.connectedComponentsWithStats(extra, connectivity=8)
+    _n, labels, stats, _c = cv2.connectedComponentsWithStats(extra, connectivity=8)
     grown = core.copy()
-    for i in range(1, n):
-        part = labels == i
-        if stats[i, cv2.CC_STAT_AREA] >= GROW_MIN_SHARE * core.size and near[part].any():
-            grown[part] = 1
+    # a cluttered picture has hundreds of parts: only those large enough are looked at, each in its own box
+    for i in np.nonzero(stats[1:, cv2.CC_STAT_AREA] >= GROW_MIN_SHARE * core.size)[0] + 1:
+        x, y, w, h = stats[i, :4]
+        part = labels[y : y + h, x : x + w] == i
+        if near[y : y + h, x : x + w][part].any():
+            grown[y : y + h, x : x + w][part] = 1
     if int(grown.sum()) == int(core.sum()):
         return core.astype(bool)
     grown = cv2.morphologyEx(grown, cv2.MORPH_CLOSE, kernel)  # the seam between the core and the parts
-    n, labels, stats, _c = cv2.connectedComponentsWithStats(grown, connectivity=8)
+    _n, labels, stats, _c = cv2.connectedComponentsWithStats(grown, connectivity=8)
     return _fill(labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])))
+
+
+def _median_u8(values: np.ndarray, where: np.ndarray) -> float:
+    """np.median of the uint8 `values` where `where` (uint8 0/1) is set, from their histogram (the mean of the
+    two middle ones for an even count, as np.median): no copy, no sort."""
+    counts = np.cumsum(cv2.calcHist([values], [0], where, [256], [0, 256]).ravel().astype(np.int64))
+    n = int(counts[-1])
+    lo, hi = np.searchsorted(counts, [(n - 1) // 2, n // 2], side="right")
+    return (float(lo) + float(hi)) / 2
 
 
 # --- people in a video with a static camera (thesis §5.2 steps 1-3, §6.2.2) ---------------------------

@@ -166,6 +166,25 @@ def test_pale_fingers_are_grown_back_but_not_a_grey_shadow():
     assert not m[60:85, 76:88].any() and not m[:12].any()
 
 
+def test_the_histogram_median_is_numpys_median(shared_hands):
+    """segmentation._median_u8 (the wall's and the skin's saturation in _grow_parts, from a histogram) gives what
+    np.median gave on the same pixels, for an odd and an even count, on a shared photograph and a room frame."""
+    from perception import composites as cm
+    from perception.segmentation import _median_u8
+
+    photo = load_image(shared_hands / "2/IMG_1282.JPG")
+    room = cm.background_maker("noise")(np.random.default_rng(3))
+    for img in (photo, room):
+        sat = cv2.GaussianBlur(cv2.cvtColor(img, cv2.COLOR_BGR2HSV)[..., 1], (3, 3), 0)
+        core = hand_mask(img).astype(np.uint8) if img is photo else np.zeros(sat.shape, np.uint8)
+        core[: sat.shape[0] // 3, : sat.shape[1] // 3] = 1
+        for odd in (0, 1):
+            where = core.copy()
+            where[-1, -1] = 1 - where[-1, -1] if (int(where.sum()) % 2) != odd else where[-1, -1]
+            for part in (where, 1 - where):
+                assert _median_u8(sat, part) == float(np.median(sat[part > 0].astype(np.float32)))
+
+
 def test_the_training_benchmark_prints_its_figures(shared_hands, tmp_path, capsys):
     """scripts/bench_classifier.py (the training-time figure in docs/benchmarks/classifier.txt), on three
     classes of twelve shared photos: it trains, saves, and prints CPU and wall seconds and the model's size."""
