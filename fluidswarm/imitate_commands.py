@@ -7,7 +7,14 @@ from typing import TYPE_CHECKING
 
 from agent.protocol.errors import UserError
 from coordinator.control.imitation_setup import CONTROLLERS, DEFAULT_CONTROLLER
-from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.options import (
+    add_json_argument,
+    add_swarm_arguments,
+    print_json,
+    radio_model,
+    radio_options,
+    robot_model,
+)
 from fluidswarm.orchestration.run_config import (
     AGENTS,
     CAMERA_FPS,
@@ -18,11 +25,8 @@ from fluidswarm.orchestration.run_config import (
     RunConfig,
     check_agents,
 )
-from fluidswarm.radio_option import add_radio_arguments, radio_model, radio_options
-from fluidswarm.realtime_option import add_realtime_argument
-from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.recording.live import live_from_args
+from fluidswarm.ros2_options import ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.worker_command import add_workers_arguments, workers_options
 
 if TYPE_CHECKING:
@@ -70,11 +74,7 @@ def register(sub) -> None:
     p.add_argument("--steps", type=int, default=None)
     p.add_argument("--out", default=str(Recording.out))
     add_workers_arguments(p)
-    add_robot_argument(p)
-    add_radio_arguments(p)
-    add_live_argument(p)
-    add_ros2_arguments(p)
-    add_realtime_argument(p)
+    add_swarm_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_imitate)
 

@@ -284,7 +284,7 @@ def _scenario(raw: dict, path: Path) -> Scenario:
             )
     kw["sph"] = sph
     kw["robot"] = scenario_robot(file, _typed(file, "robot", raw.get("robot", {}), dict))
-    from fluidswarm.radio_option import check_lockstep, radio_model
+    from fluidswarm.options import check_lockstep, radio_model
 
     kw["radio"] = radio_model(_typed(file, "radio", raw.get("radio", {}), dict), kw.get("seed", 0), where=file)
     check_lockstep(kw["radio"], kw.get("sync", "lockstep"), f"{file}: key 'radio'")
@@ -341,6 +341,17 @@ def scenario_obstacles(file: str, tables) -> tuple[Obstacle, ...]:
     except ValueError as exc:
         key, _, problem = str(exc).partition(": ")
         raise UserError(f"{file}: key '{key}': {problem}") from None
+
+
+def obstacles_file(path: str | None) -> tuple[Obstacle, ...]:
+    """The obstacles of `--obstacles FILE` (None: none): its [[obstacle]] tables; bad input is one line naming
+    the file and the key."""
+    if path is None:
+        return ()
+    raw = read_toml(Path(path), f"--obstacles {path}", "no such file")
+    if "obstacle" not in raw:
+        raise UserError(f"--obstacles {path}: key 'obstacle': the file holds no [[obstacle]] table")
+    return scenario_obstacles(path, raw["obstacle"])
 
 
 def scenario_robot(file: str, table: dict, kind: str | None = None) -> RobotModel:

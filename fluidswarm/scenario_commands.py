@@ -10,13 +10,17 @@ from typing import TYPE_CHECKING
 from agent.protocol.errors import UserError
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT
 from agent.sph.robot import POINT
-from fluidswarm.json_option import add_json_argument, print_json
+from fluidswarm.options import (
+    add_json_argument,
+    add_swarm_arguments,
+    check_lockstep,
+    print_json,
+    radio_model,
+    radio_options,
+)
 from fluidswarm.orchestration.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
-from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
-from fluidswarm.realtime_option import add_realtime_argument
-from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.robot_option import add_robot_argument
-from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.recording.live import live_from_args
+from fluidswarm.ros2_options import ros2_bag_from_args, ros2_from_args, write_run_bag
 from fluidswarm.scenario import (
     SYNC_MODES,
     Failure,
@@ -68,21 +72,13 @@ def register(sub) -> None:
     g.add_argument(
         "--compare", action="store_true", help="also run without failures (same seed) and print fidelity_ratio"
     )
-    add_robot_argument(p)
-    add_radio_arguments(p)
-    add_live_argument(p)
-    add_ros2_arguments(p)
-    add_realtime_argument(p)
+    add_swarm_arguments(p)
     add_workers_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_run)
     p = sub.add_parser("demo", help="the main job: a real V-sign photograph imitated by ~60 agent processes")
     p.add_argument("--out", default="out/demo")
-    add_robot_argument(p)
-    add_radio_arguments(p)
-    add_live_argument(p)
-    add_ros2_arguments(p)
-    add_realtime_argument(p)
+    add_swarm_arguments(p)
     add_json_argument(p)
     p.set_defaults(func=_demo)
 

@@ -7,8 +7,18 @@ from pathlib import Path
 
 from agent.protocol.errors import UserError
 from agent.protocol.spec import MODES, NEIGHBOUR_TIMEOUT
-from fluidswarm.json_option import add_json_argument, print_json
-from fluidswarm.obstacle_option import add_obstacles_argument, obstacles_option
+from fluidswarm.options import (
+    add_json_argument,
+    add_obstacles_argument,
+    add_radio_arguments,
+    add_robot_argument,
+    add_swarm_arguments,
+    check_lockstep,
+    print_json,
+    radio_model,
+    radio_options,
+    robot_model,
+)
 from fluidswarm.orchestration.run_config import (
     LAUNCH_AGENTS,
     SYNC_OPTION,
@@ -20,11 +30,9 @@ from fluidswarm.orchestration.run_config import (
     check_agents,
     positive_problem,
 )
-from fluidswarm.radio_option import add_radio_arguments, check_lockstep, radio_model, radio_options
-from fluidswarm.realtime_option import add_realtime_argument
-from fluidswarm.recording.live import add_live_argument, live_from_args
-from fluidswarm.robot_option import add_robot_argument, robot_model
-from fluidswarm.ros2_options import add_ros2_arguments, ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.recording.live import live_from_args
+from fluidswarm.ros2_options import ros2_bag_from_args, ros2_from_args, write_run_bag
+from fluidswarm.scenario import obstacles_file
 
 
 def register(sub) -> None:
@@ -61,12 +69,8 @@ def register(sub) -> None:
         help="the progress line on stderr (step, steps/s, alive, failures; a new line every 5 s into a file or "
         "pipe: what scripts/soak.py reads)",
     )
-    add_live_argument(p)
-    add_ros2_arguments(p)
-    add_robot_argument(p)
-    add_radio_arguments(p)
+    add_swarm_arguments(p)
     add_obstacles_argument(p)
-    add_realtime_argument(p)
     add_json_argument(p)
     p.set_defaults(func=_launch)
 
@@ -255,7 +259,7 @@ def _launch(args) -> int:
         args.record,
         robot=robot_model(args.robot),
         radio=radio_model(radio_options(args)),
-        obstacles=obstacles_option(args.obstacles),
+        obstacles=obstacles_file(args.obstacles),
     )
     check_lockstep(kind.radio, args.sync, "--radio-*")
     _check_block(kind)
@@ -301,7 +305,7 @@ def _verify(args) -> int:
         kind="verify",
         robot=robot_model(args.robot),
         radio=radio_model(radio_options(args)),
-        obstacles=obstacles_option(args.obstacles),
+        obstacles=obstacles_file(args.obstacles),
     )
     _check_block(kind)
     kind.ids = _slice(args, kind)
