@@ -13,6 +13,7 @@ The same seed gives the same frames.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -34,6 +35,7 @@ class Tally:
     empty: int = 0
     false: int = 0
     ms: list[float] = field(default_factory=list)
+    cpu_ms: list[float] = field(default_factory=list)  # the process's CPU time (all its threads) per frame
 
     def row(self, name: str) -> str:
         det = self.found / max(self.hands, 1)
@@ -52,6 +54,7 @@ class Tally:
             setattr(self, k, getattr(self, k) + getattr(other, k))
         self.ious += other.ious
         self.ms += other.ms
+        self.cpu_ms += other.cpu_ms
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -126,7 +129,12 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                 person_silhouette(warm)
             except SegmentationError:
                 pass
-        print(f"seed={seed} hands_per_family={hands} train={len(ytr)} test={len(yte)} held_out_backgrounds={held}")
+        # the machine's load: a frame's wall time grows with other work on its cores, its CPU time (cpu_ms) less so
+        load = os.getloadavg()[0]
+        print(
+            f"seed={seed} hands_per_family={hands} train={len(ytr)} test={len(yte)} held_out_backgrounds={held} "
+            f"load={load:.2f}"
+        )
         new_all, old_all, person_rows = Tally(), Tally(), []
         lines = []
         for fam in fams:
@@ -142,12 +150,13 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                 empty = cm.degrade(make(rng), rng)
                 for tally, learned in ((new, True), (old, False)):
                     tally.hands += 1
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     try:
                         h = find_hand(frame, clf10, learned, poses10)
                     except NoHandError:
                         h = None
                     tally.ms.append(1000 * (time.perf_counter() - t0))
+                    tally.cpu_ms.append(1000 * (time.process_time() - c0))
                     if h is not None:
                         tally.found += 1
                         tally.ious.append(_iou(h.mask, truth))
@@ -214,7 +223,8 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
         f"hand_detection={a.found / max(a.hands, 1):.4f} mask_iou={np.mean(a.ious) if a.ious else 0:.4f} "
         f"accuracy10={a.right10 / max(a.found, 1):.4f} accuracy5={a.right5 / max(a.five, 1):.4f} "
         f"false_positives={a.false / max(a.empty, 1):.4f} ms_per_frame={np.median(a.ms):.1f} "
-        f"ms_per_frame_p90={np.percentile(a.ms, 90):.1f}"
+        f"ms_per_frame_p90={np.percentile(a.ms, 90):.1f} cpu_ms_per_frame={np.median(a.cpu_ms):.1f} "
+        f"load={os.getloadavg()[0]:.2f}"
     )
     print(
         f"person_detection={pf / max(pn, 1):.4f} person_iou={np.mean(pious) if pious else 0:.4f} "

@@ -21,6 +21,7 @@ def test_a_small_run_prints_the_table_and_the_figures(shared_hands, weizmann, ca
     figures = dict(re.findall(r"(\w+)=([0-9.]+)", out.splitlines()[-2] + " " + out.splitlines()[-1]))
     for key in ("hand_detection", "mask_iou", "accuracy10", "false_positives", "ms_per_frame", "person_iou"):
         assert 0.0 <= float(figures[key]) <= (1e4 if key == "ms_per_frame" else 1.0), (key, figures)
+    assert 0.0 < float(figures["cpu_ms_per_frame"]) < 1e4 and float(figures["load"]) >= 0.0, figures
     assert float(figures["person_detection"]) == 1.0  # one skin wall, one pasted person: found
 
 
