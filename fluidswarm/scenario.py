@@ -18,7 +18,7 @@ from agent.protocol.spec import MODES, SyncMode
 from agent.sph.obstacles import Obstacle, obstacles_from
 from agent.sph.params import SPHParams
 from agent.sph.radio import PERFECT, RadioModel
-from agent.sph.robot import POINT, RobotModel, robot_from
+from agent.sph.robot import POINT, RobotModel
 from coordinator.control.imitation_setup import CONTROLLERS as IMITATION_CONTROLLERS
 from coordinator.control.imitation_setup import DEFAULT_CONTROLLER
 from fluidswarm.orchestration.run_config import AGENTS, Sync, agents_problem, check, positive_problem
@@ -283,8 +283,9 @@ def _scenario(raw: dict, path: Path) -> Scenario:
                 f"by the gesture command, not by [sph] (it acts in the branching and drag experiments)"
             )
     kw["sph"] = sph
-    kw["robot"] = scenario_robot(file, _typed(file, "robot", raw.get("robot", {}), dict))
-    from fluidswarm.options import check_lockstep, radio_model
+    from fluidswarm.options import check_lockstep, radio_model, robot_model
+
+    kw["robot"] = robot_model(None, _typed(file, "robot", raw.get("robot", {}), dict), where=file)
 
     kw["radio"] = radio_model(_typed(file, "radio", raw.get("radio", {}), dict), kw.get("seed", 0), where=file)
     check_lockstep(kw["radio"], kw.get("sync", "lockstep"), f"{file}: key 'radio'")
@@ -352,14 +353,3 @@ def obstacles_file(path: str | None) -> tuple[Obstacle, ...]:
     if "obstacle" not in raw:
         raise UserError(f"--obstacles {path}: key 'obstacle': the file holds no [[obstacle]] table")
     return scenario_obstacles(path, raw["obstacle"])
-
-
-def scenario_robot(file: str, table: dict, kind: str | None = None) -> RobotModel:
-    """The [robot] table (and a --robot kind over it) as a RobotModel; bad input names the key."""
-    if not table and kind is None:
-        return POINT
-    try:
-        return robot_from(kind, table)
-    except (ValueError, TypeError) as exc:
-        key, _, problem = str(exc).partition(": ")
-        raise UserError(f"{file}: key '{key}': {problem}") from None

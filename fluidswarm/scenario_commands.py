@@ -17,6 +17,7 @@ from fluidswarm.options import (
     print_json,
     radio_model,
     radio_options,
+    robot_model,
 )
 from fluidswarm.orchestration.run_config import SYNC_OPTION, Access, Recording, RunConfig, check_agents
 from fluidswarm.recording.live import live_from_args
@@ -27,7 +28,6 @@ from fluidswarm.scenario import (
     PassCriteria,
     Scenario,
     load_scenario,
-    scenario_robot,
     scenarios_dir,
 )
 from fluidswarm.worker_command import add_workers_arguments, workers_options
@@ -299,10 +299,10 @@ def _run(args) -> int:
     if args.robot is not None:
         sc = replace(
             sc,
-            robot=scenario_robot(
-                str(sc.path),
-                {k: v for k, v in sc.robot.as_dict().items() if k != "kind"} if sc.robot != POINT else {},
+            robot=robot_model(
                 args.robot,
+                {k: v for k, v in sc.robot.as_dict().items() if k != "kind"} if sc.robot != POINT else {},
+                where=str(sc.path),
             ),
         )
     sc = with_radio_options(sc, args)
@@ -343,7 +343,7 @@ def with_radio_options(sc: Scenario, args) -> Scenario:
 def _demo(args) -> int:
     sc = load_scenario(scenarios_dir() / DEMO_SCENARIO)
     if args.robot is not None:
-        sc = replace(sc, robot=scenario_robot(str(sc.path), {}, args.robot))
+        sc = replace(sc, robot=robot_model(args.robot, {}, where=str(sc.path)))
     sc = with_radio_options(sc, args)
     bag = ros2_bag_from_args(args)
     return _report(
