@@ -128,7 +128,7 @@ def lockstep(n: int, steps: int, record: bool = True) -> LockstepRun:
 
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
-        with Run(kind, RunOptions(Recording(None, f"bench_{n}"), NEIGHBOUR_TIMEOUT.benchmark, swarm_size=n)) as run:
+        with Run(kind, RunOptions(Recording(None, f"bench_{n}"), NEIGHBOUR_TIMEOUT.benchmark)) as run:
             run.on_start(lambda: snapshot(run))
             run.on_stop(lambda: snapshot(run))
             kind.drive(run)

@@ -189,7 +189,6 @@ def run_once(
         progress=True,
         access=Access(**(hosts or {})),
         realtime=realtime,
-        swarm_size=agents,
     )
     try:
         with Run(kind, options) as run:

@@ -214,9 +214,7 @@ def _options(args, name: str, timeout: float, live: str = "", ros2: str = ""):
 
     realtime = getattr(args, "realtime", False)  # launch has --realtime; verify runs as fast as it can
     access = Access(connect=args.connect, run=args.run, auth_file=_auth_file(args))
-    return RunOptions(
-        Recording(None, name, live, ros2), timeout, access=access, realtime=realtime, swarm_size=args.agents
-    )
+    return RunOptions(Recording(None, name, live, ros2), timeout, access=access, realtime=realtime)
 
 
 def _check_block(kind) -> None:

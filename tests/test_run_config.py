@@ -82,15 +82,16 @@ def test_an_imitations_router_provisions_its_swarm_and_late_joiners_ids_only(mon
     # The embedded router's rules grow with its users (1280: ~0.3 s of every start): a run that knows its
     # swarm provisions its ids, and the late joiners' its failures will start, no more.
     from agent.protocol.access import AGENT_CAPACITY, LaunchAccess
-    from fluidswarm.orchestration.imitate import run_options
+    from fluidswarm.orchestration.imitate import FileImitation, run_options
     from fluidswarm.orchestration.run import RunOptions
     from fluidswarm.scenario import Failure
 
     monkeypatch.setenv("FLUIDSWARM_ACCESS", "acl")
-    assert run_options(RunConfig(agents=300)).capacity() == 300
+    # Run gives capacity its kind's swarm size (RunKind.agents: Block's, an experiment's, an imitation's config's)
+    assert FileImitation("x.png", RunConfig(agents=300)).agents == 300
+    assert run_options(RunConfig(agents=300)).capacity(300) == 300
     joining = RunOptions(Recording(None, "x"), failures=(Failure("late_join", 10, count=4), Failure("kill", 5)))
-    assert RunOptions(Recording(None, "x"), swarm_size=20, failures=joining.failures).capacity() == 24
-    assert joining.capacity() == AGENT_CAPACITY  # a run that does not say: every id it may take
+    assert joining.capacity(20) == 24 < AGENT_CAPACITY
     access = LaunchAccess.embedded(24)
     assert access.capacity == 24 and len(access.acl["policies"]) == 24 + 3
     access.env_for_agent(23)

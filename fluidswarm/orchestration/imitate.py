@@ -170,6 +170,11 @@ class FileImitation:
     start: tuple[float, float] | None = None  # the start layout's centre [m]; None: the silhouette's interior
     source: str = "--obstacles"  # what bad obstacles or a bad start are named after (a scenario file)
 
+    @property
+    def agents(self) -> int:
+        """The swarm's size (RunKind): its configuration's."""
+        return self.config.agents
+
     def __post_init__(self):
         if self.frame_steps > 0:
             self.kind = "sequence"
@@ -305,7 +310,6 @@ def run_options(config: RunConfig, realtime: bool | None = None, progress: bool 
         progress=progress,
         access=config.access,
         realtime=config.realtime if realtime is None else realtime,
-        swarm_size=config.agents,
     )
 
 

@@ -94,6 +94,11 @@ class CameraImitation:
     config: RunConfig
     kind: str = "camera"
 
+    @property
+    def agents(self) -> int:
+        """The swarm's size (RunKind): its configuration's."""
+        return self.config.agents
+
     def drive(self, run: Run) -> None:
         o = run.options
         tmp = run.scratch

@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Protocol, Self
 
 import numpy as np
 
-from agent.protocol.access import AGENT_CAPACITY
 from agent.protocol.errors import UserError
 from agent.protocol.report import FinalReport
 from agent.protocol.spec import NEIGHBOUR_TIMEOUT, SyncMode
@@ -88,8 +87,7 @@ class RunOptions:
     fluidswarm.scenario.Failure records injected during the run, victims drawn from `seed`; commands: the agents
     follow signed gesture commands; progress: the progress line on stderr (`run` and `demo`; the other commands
     keep stderr for errors); realtime: simulated time held to the wall clock (swarmhost/pacing.py
-    pace_realtime); swarm_size: the agents the run starts, if it knows them (an embedded router then provisions
-    their ids and its late joiners' only, and starts faster; None: every id it may take, AGENT_CAPACITY)."""
+    pace_realtime)."""
 
     recording: Recording
     neighbour_timeout: float = NEIGHBOUR_TIMEOUT.default
@@ -99,13 +97,11 @@ class RunOptions:
     progress: bool = False
     access: Access = field(default_factory=Access)
     realtime: bool = False
-    swarm_size: int | None = None
 
-    def capacity(self) -> int:
-        """The agent ids the run's embedded router provisions: its swarm and late joiners (or all it may take)."""
-        if self.swarm_size is None:
-            return AGENT_CAPACITY
-        return self.swarm_size + sum(f.count for f in self.failures if f.kind == "late_join")
+    def capacity(self, swarm_size: int) -> int:
+        """The agent ids the run's embedded router provisions: the `swarm_size` agents the run starts (its kind's
+        `agents`) and its late joiners, not every id it may take (AGENT_CAPACITY): it starts faster."""
+        return swarm_size + sum(f.count for f in self.failures if f.kind == "late_join")
 
 
 @dataclass
@@ -189,6 +185,11 @@ class RunKind(Protocol):
 
     kind: str
 
+    @property
+    def agents(self) -> int:
+        """The swarm's size: the agents the run starts (late joiners aside), on every host."""
+        ...
+
     def drive(self, run: Run) -> None: ...
 
     def score(self, run: Run) -> None: ...
@@ -223,7 +224,7 @@ class Run:
                 agent_timeout=o.neighbour_timeout,
                 auth_file=o.access.auth_file,
                 commands=o.commands,
-                capacity=o.capacity(),
+                capacity=o.capacity(self.kind.agents),
             )
         except ValueError as exc:  # a bad run name
             raise UserError(str(exc)) from None
