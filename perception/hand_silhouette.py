@@ -196,9 +196,10 @@ def clean_crop(image_bgr: np.ndarray, mask: np.ndarray, side: int = 100) -> tupl
     bx1, by1 = min(w, int(np.ceil(cx + s / 2)) + 2), min(h, int(np.ceil(cy + s / 2)) + 2)
     cx, cy = cx - bx0, cy - by0
     m = np.array([[side / s, 0, side / 2 - cx * side / s], [0, side / s, side / 2 - cy * side / s]], np.float32)
-    alpha = mask[by0:by1, bx0:bx1].astype(np.float32)
-    part = image_bgr[by0:by1, bx0:bx1]
-    mixed = (part * alpha[..., None] + np.array(PLAIN_BGR, np.float32) * (1 - alpha[..., None])).astype(np.uint8)
+    inside = mask[by0:by1, bx0:bx1].astype(bool)
+    alpha = inside.astype(np.float32)
+    # the silhouette's pixels as they are, the rest plain (what blending by the 0/1 alpha gave, without floats)
+    mixed = np.where(inside[..., None], image_bgr[by0:by1, bx0:bx1], np.array(PLAIN_BGR, np.uint8))
     pic = cv2.warpAffine(mixed, m, (side, side), flags=cv2.INTER_AREA, borderValue=PLAIN_BGR)
     sil = cv2.warpAffine(alpha, m, (side, side), flags=cv2.INTER_LINEAR, borderValue=0) >= 0.5
     return pic, sil
