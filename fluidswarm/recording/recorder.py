@@ -37,21 +37,9 @@ from agent.sph.robot import POINT, RobotKind, RobotModel
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording.coordinator_events import CoordinatorNotes, LauncherEvents
 from fluidswarm.recording.live import LiveServer, parse_address
+from fluidswarm.recording.preload import preload
 from fluidswarm.recording.steps import BATCH_GRACE_SECONDS, FINISH_LIMIT_SECONDS, FINISH_QUIET_SECONDS, StepAssembly
 from fluidswarm.recording.writer import RunWriter
-
-
-def preload_fidelity() -> None:
-    """Import the fidelity measure (coordinator/control/fidelity.py, with scipy.spatial and OpenCV: ~0.45 s of the
-    recorder's ~0.7 s of imports) on a thread of its own once the recorder is ready: it is needed only at the end,
-    and the launcher waits for the recorder's token before it spawns the agents, so imported at the top it made
-    every recorded run's start-up that much longer. Python's import lock makes the end wait for the same import if
-    it comes first, never repeat it."""
-
-    def load() -> None:
-        import coordinator.control.fidelity  # noqa: F401  # imported for its side effect: loaded
-
-    threading.Thread(target=load, name="preload-fidelity", daemon=True).start()
 
 
 class Recorder(StepAssembly):
@@ -316,7 +304,9 @@ def main(argv: list[str] | None = None) -> int:
         ]
         _token = session.liveliness().declare_token(f"{keys.PREFIX}/{args.run}/recorder")
         if target is not None or follow is not None:
-            preload_fidelity()
+            # needed only at the end: imported at the top (scipy.spatial, OpenCV: ~0.45 s of the ~0.7 s of imports)
+            # it lengthened every recorded run's start-up, which waits for this process's token
+            preload("coordinator.control.fidelity")
         record(recorder, stop, follow=tuple(f for f in (follow, launcher) if f is not None))
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
@@ -329,7 +319,7 @@ def main(argv: list[str] | None = None) -> int:
             follow.poll(recorder.t(recorder.next_step))  # what came since the last pump
             target, gesture = follow.target or target, follow.gesture
         if target is not None and recorder.last_positions is not None:
-            from coordinator.control.fidelity import fidelity  # loaded by preload_fidelity meanwhile
+            from coordinator.control.fidelity import fidelity  # loaded by preload() meanwhile
 
             # against the last target written (the last gesture's), named
             writer.write_fidelity(

@@ -6,7 +6,6 @@ Foxglove). Matplotlib's object API with the Agg canvas (no pyplot state); images
 
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -14,6 +13,7 @@ import numpy as np
 from PIL import Image
 
 from fluidswarm.recording import schemas as sc
+from fluidswarm.recording.preload import preload
 from fluidswarm.recording.reader import Frame, Recording, Scene, Target
 
 # matplotlib (~0.45 s of CPU to import) and the analysis (scipy.spatial, ~0.3 s) are imported where a picture is
@@ -55,15 +55,8 @@ def domain_extent(run: Recording, margin: float = 0.05) -> tuple[float, float, f
 def preload_figures() -> None:
     """Import matplotlib's figure, Agg canvas and patches on a thread of their own: started when a run's
     processes are being stopped (mostly waiting), the formation picture drawn after them (`plot_formation`)
-    finds them loaded instead of spending ~0.3 s importing them then. Python's import lock makes a draw that
-    comes first wait for the same import, never repeat it."""
-
-    def load() -> None:
-        import matplotlib.backends.backend_agg
-        import matplotlib.figure
-        import matplotlib.patches  # noqa: F401  # imported for its side effect: loaded
-
-    threading.Thread(target=load, name="preload-figures", daemon=True).start()
+    finds them loaded instead of spending ~0.3 s importing them then."""
+    preload("matplotlib.backends.backend_agg", "matplotlib.figure", "matplotlib.patches")
 
 
 def _figure(size: tuple[int, int]) -> tuple[Figure, FigureCanvasAgg]:
