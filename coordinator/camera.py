@@ -328,73 +328,81 @@ def _observe_stream(
     ros2_router="",
 ) -> None:
     current: list[bytes] = []
+    # The republisher ends with this function (`done`) and is joined: the caller undeclares `pub` next, and a put
+    # still running on it made that undeclare fail ("Already borrowed": test_camera in a fresh-clone CI).
+    done = threading.Event()
 
     def republish() -> None:
-        while not stop.wait(period):
+        while not done.wait(period) and not stop.is_set():
             if current:
                 pub.put(current[-1])
 
-    threading.Thread(target=republish, name="republish", daemon=True).start()
-    switch = CommandSwitch(rule)
-    transform = None
-    seq = 0
-    observer = None
-    # The hand observer (its classifier and the modules it loads, ~0.2 s) is ready before the stream opens: a
-    # video file plays in real time from its open, and what loads after that is frames lost before the swarm's
-    # first command, and time the swarm does not get to form the later gestures.
-    hands = HandObserver() if subject in ("hand", "auto") else None
-    with open_stream(source, stream_params, ros2_router) as stream:
+    republisher = threading.Thread(target=republish, name="republish", daemon=True)
+    republisher.start()
+    try:
+        switch = CommandSwitch(rule)
+        transform = None
+        seq = 0
+        observer = None
+        # The hand observer (its classifier and the modules it loads, ~0.2 s) is ready before the stream opens: a
+        # video file plays in real time from its open, and what loads after that is frames lost before the swarm's
+        # first command, and time the swarm does not get to form the later gestures.
+        hands = HandObserver() if subject in ("hand", "auto") else None
+        with open_stream(source, stream_params, ros2_router) as stream:
 
-        def frames():
-            try:
-                while not stop.is_set():
-                    yield stream.next()
-            except StreamEnded as exc:
-                exc.is_file, exc.frames, exc.commanded = stream.is_file, stream.frames_read, seq > 0
-                exc.subject = observer.subject if observer is not None else None
-                raise
+            def frames():
+                try:
+                    while not stop.is_set():
+                        yield stream.next()
+                except StreamEnded as exc:
+                    exc.is_file, exc.frames, exc.commanded = stream.is_file, stream.frames_read, seq > 0
+                    exc.subject = observer.subject if observer is not None else None
+                    raise
 
-        source_frames = frames()
-        first: list[np.ndarray] = []
-        if subject == "auto":
-            assert hands is not None  # made above for "auto"
-            for f in source_frames:
-                first.append(f)
-                if len(first) == AUTO_FRAMES:
-                    break
-            subject = choose_subject(first, hands)
-            observer = hands if subject == "hand" else LiveObserver(rule.window)
-            log.write(Subject(subject, "auto", len(first)))
-        else:
-            observer = hands if hands is not None else LiveObserver(rule.window)
-            log.write(Subject(subject, "given"))
-        for frame in itertools.chain(first, source_frames):
-            obs = observer.observe(frame)
-            log.missing(observer.missing)
-            if obs is None:
-                continue
-            now = time.monotonic()
-            why = switch.update(obs, now)
-            if why is None:
-                continue
-            try:  # the first observation fixes the image -> domain map (the launcher places the swarm from it)
-                shown = transform or transform_for(obs.mask, n_agents, controller_of(controller))
-                cmd = build_command(obs, shown, n_agents, controller, seq=seq + 1)
-                seen = seen_note(obs, seq + 1) if transform is None else None
-            except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take (too small, too thin): wait
-                log.missing(f"no shape the swarm can take: {exc}")
-                continue
-            transform = shown
-            seq += 1
-            switch.commit(obs, now)
-            payload = cmd.encode(secret)
-            current.append(payload)
-            del current[:-1]
-            pub.put(payload)
-            if seen is not None:  # before its command's note: the launcher waits for it to place the swarm
-                log.write(seen)
-            log.write(Commanded(seq, obs.label, why, obs.mask))
-            if seq == 1 and started is not None and stream.is_file:
-                stream.hold()
-                started.wait(HOLD_SECONDS)
-                stream.play()
+            source_frames = frames()
+            first: list[np.ndarray] = []
+            if subject == "auto":
+                assert hands is not None  # made above for "auto"
+                for f in source_frames:
+                    first.append(f)
+                    if len(first) == AUTO_FRAMES:
+                        break
+                subject = choose_subject(first, hands)
+                observer = hands if subject == "hand" else LiveObserver(rule.window)
+                log.write(Subject(subject, "auto", len(first)))
+            else:
+                observer = hands if hands is not None else LiveObserver(rule.window)
+                log.write(Subject(subject, "given"))
+            for frame in itertools.chain(first, source_frames):
+                obs = observer.observe(frame)
+                log.missing(observer.missing)
+                if obs is None:
+                    continue
+                now = time.monotonic()
+                why = switch.update(obs, now)
+                if why is None:
+                    continue
+                try:  # the first observation fixes the image -> domain map (the launcher places the swarm from it)
+                    shown = transform or transform_for(obs.mask, n_agents, controller_of(controller))
+                    cmd = build_command(obs, shown, n_agents, controller, seq=seq + 1)
+                    seen = seen_note(obs, seq + 1) if transform is None else None
+                except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take: wait
+                    log.missing(f"no shape the swarm can take: {exc}")
+                    continue
+                transform = shown
+                seq += 1
+                switch.commit(obs, now)
+                payload = cmd.encode(secret)
+                current.append(payload)
+                del current[:-1]
+                pub.put(payload)
+                if seen is not None:  # before its command's note: the launcher waits for it to place the swarm
+                    log.write(seen)
+                log.write(Commanded(seq, obs.label, why, obs.mask))
+                if seq == 1 and started is not None and stream.is_file:
+                    stream.hold()
+                    started.wait(HOLD_SECONDS)
+                    stream.play()
+    finally:
+        done.set()
+        republisher.join()
