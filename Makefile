@@ -16,21 +16,23 @@ EXT_SRC := $(NATIVE)/python/Cargo.toml $(wildcard $(NATIVE)/python/src/*.rs)
 
 .PHONY: demo test check install clean bench agent router-traffic crate-tests fuzz netfault-tools lint fmt scenarios
 
-# clippy's target directory (make lint): a check build reuses none of a release build's artifacts, so it has one
-# of its own, and the extension's release build goes there too (its build scripts and proc-macros, pyo3's, are
-# the ones clippy needs).
-CHECK_DIR := $(CURDIR)/$(NATIVE)/target/check
+# The extension's target directory (pip's build, beside cargo's build of the programs in target/, so that neither
+# waits for the other's lock). clippy (make lint) runs in target/ itself: its check build reuses the build scripts
+# and proc-macros the programs' release build compiled (with ring's C) and compiles only pyo3's own; in a
+# directory of its own it compiled all 109 of them again (on a clone with the programs built, clippy alone:
+# 143 s, 250 s of CPU in target/check with pip's extension build there; 104 s, 173 s of CPU in target/).
+EXT_DIR := $(CURDIR)/$(NATIVE)/target/ext
 
 # The editable install: the Python dependencies and the extension module (pip, setuptools-rust). The programs
 # are not pip's here (FLUIDSWARM_PROGRAMS=cargo, setup.py) but cargo's rule below, so that `make install` runs the
 # two builds side by side (-j2): the programs' build alone keeps the 2 cores 1.8 busy (cargo --timings), pip's
 # dependencies and the extension fill the rest instead of waiting for it (a fresh clone: 318 s, then 22 s and
-# 47 s). The extension builds in $(CHECK_DIR), so neither cargo waits for the other's lock. The dev path runs the
+# 47 s). The extension builds in $(EXT_DIR), so neither cargo waits for the other's lock. The dev path runs the
 # programs from agent/native/target/release (swarmhost/executable.py).
 $(STAMP): pyproject.toml setup.py constraints.txt $(EXT_SRC) $(AGENT_SRC)
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	FLUIDSWARM_PROGRAMS=cargo CARGO_TARGET_DIR=$(CHECK_DIR) \
+	FLUIDSWARM_PROGRAMS=cargo CARGO_TARGET_DIR=$(EXT_DIR) \
 		$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,lint]'
 	touch $(STAMP)
 
@@ -62,19 +64,19 @@ install:
 demo: install
 	$(BIN)/fluidswarm demo
 
-# make test first builds what the tests run, in two lanes side by side on the 2 cores (make -j2, each target's output
-# in one piece): pip (the Python dependencies, the extension module in target/check) beside cargo's programs. Then the
-# swarm tests marked `alone` (tests/conftest.py ALONE: they measure stalls, recoveries and the realtime factor in wall
+# make test first builds what the tests run, in two lanes side by side on the 2 cores (make -j2, each target's output in
+# one piece): pip (the Python dependencies, the extension module in target/ext) beside cargo's programs. Then the swarm
+# tests marked `alone` (tests/conftest.py ALONE: they measure stalls, recoveries and the realtime factor in wall
 # seconds, or inject faults whose effect is timed), one at a time. They keep only half a core busy (zenoh's lease,
 # connect timeouts, frozen agents, clips played in real time), so the rest of the build runs beside them in the
-# background at the idle scheduling class (chrt --idle: it gets only the CPU no test wants, and a test's process takes
-# a core from it the moment it wakes): make lint (its clippy check build in target/check), the counting router and the
-# crate's tests, ~500 s of CPU on a fresh clone, which no test but one waits for. setsid: their own process group,
-# which an interrupted make test stops. Their output is printed once they are done (one piece per target). Then the
-# unit tests (no processes) and the swarm tests that may share the machine, two at a time (pytest-xdist, worksteal: a
-# worker that runs out takes the other's queue), with both cores to themselves; then tests/test_router_traffic.py,
-# the one test that needs the counting router. Every part runs even when another failed, and `make test` fails if any
-# did. Each run lists its slowest ten (docs/development.md).
+# background at the idle scheduling class (chrt --idle: it gets only the CPU no test wants, and a test's process takes a
+# core from it the moment it wakes): make lint, the counting router and the crate's tests (one target directory, so
+# cargo runs their builds one after the other), ~420 s of CPU on a fresh clone, which no test but one waits for. setsid:
+# their own process group, which an interrupted make test stops. Their output is printed once they are done (one piece
+# per target). Then the unit tests (no processes) and the swarm tests that may share the machine, two at a time
+# (pytest-xdist, worksteal: a worker that runs out takes the other's queue), with both cores to themselves; then
+# tests/test_router_traffic.py, the one test that needs the counting router. Every part runs even when another failed,
+# and `make test` fails if any did. Each run lists its slowest ten (docs/development.md).
 IDLE := $(if $(shell command -v chrt 2>/dev/null),chrt --idle 0,nice -n 19)
 BUILD_LOG := $(VENV)/make-test-build.log
 test: netfault-tools
@@ -152,7 +154,7 @@ lint: $(STAMP)
 	$(BIN)/mypy || fail=1; \
 	$(CARGO) fmt --all --manifest-path $(NATIVE)/Cargo.toml --check || fail=1; \
 	$(CARGO) clippy --release --workspace --all-targets --locked --manifest-path $(NATIVE)/Cargo.toml \
-		--target-dir $(CHECK_DIR) -- -D warnings || fail=1; \
+		-- -D warnings || fail=1; \
 	test $$fail -eq 0
 
 # The mechanical fixers: ruff's safe fixes (never --unsafe-fixes), then both formatters.
