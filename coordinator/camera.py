@@ -25,12 +25,13 @@ ends normally at its last frame; a device or URL that ends or stalls is a Stream
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import re
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import cv2
@@ -285,22 +286,94 @@ def run_camera(
     if subject not in SUBJECTS:
         raise ValueError(f"subject must be one of {', '.join(SUBJECTS)}, got {subject!r}")
     log = EventLog(say)
+    with _said_how_a_file_ended(source, log):
+        current: list[bytes] = []
+        # The republisher ends with this function (`done`) and is joined: the caller undeclares `pub` next, and a put
+        # still running on it made that undeclare fail ("Already borrowed": test_camera in a fresh-clone CI).
+        done = threading.Event()
+
+        def republish() -> None:
+            while not done.wait(period) and not stop.is_set():
+                if current:
+                    pub.put(current[-1])
+
+        republisher = threading.Thread(target=republish, name="republish", daemon=True)
+        republisher.start()
+        try:
+            switch = CommandSwitch(rule)
+            transform = None
+            seq = 0
+            observer = None
+            # The hand observer (its classifier and the modules it loads, ~0.2 s) is ready before the stream opens: a
+            # video file plays in real time from its open, and what loads after that is frames lost before the swarm's
+            # first command, and time the swarm does not get to form the later gestures.
+            hands = HandObserver() if subject in ("hand", "auto") else None
+            with open_stream(source, stream_params, ros2_router) as stream:
+
+                def frames():
+                    try:
+                        while not stop.is_set():
+                            yield stream.next()
+                    except StreamEnded as exc:
+                        exc.is_file, exc.frames, exc.commanded = stream.is_file, stream.frames_read, seq > 0
+                        exc.subject = observer.subject if observer is not None else None
+                        raise
+
+                source_frames = frames()
+                first: list[np.ndarray] = []
+                if subject == "auto":
+                    assert hands is not None  # made above for "auto"
+                    for f in source_frames:
+                        first.append(f)
+                        if len(first) == AUTO_FRAMES:
+                            break
+                    subject = choose_subject(first, hands)
+                    observer = hands if subject == "hand" else LiveObserver(rule.window)
+                    log.write(Subject(subject, "auto", len(first)))
+                else:
+                    observer = hands if hands is not None else LiveObserver(rule.window)
+                    log.write(Subject(subject, "given"))
+                for frame in itertools.chain(first, source_frames):
+                    obs = observer.observe(frame)
+                    log.missing(observer.missing)
+                    if obs is None:
+                        continue
+                    now = time.monotonic()
+                    why = switch.update(obs, now)
+                    if why is None:
+                        continue
+                    try:  # the first observation fixes the image -> domain map (the launcher places the swarm from it)
+                        shown = transform or transform_for(obs.mask, n_agents, controller_of(controller))
+                        cmd = build_command(obs, shown, n_agents, controller, seq=seq + 1)
+                        seen = seen_note(obs, seq + 1) if transform is None else None
+                    except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take: wait
+                        log.missing(f"no shape the swarm can take: {exc}")
+                        continue
+                    transform = shown
+                    seq += 1
+                    switch.commit(obs, now)
+                    payload = cmd.encode(secret)
+                    current.append(payload)
+                    del current[:-1]
+                    pub.put(payload)
+                    if seen is not None:  # before its command's note: the launcher waits for it to place the swarm
+                        log.write(seen)
+                    log.write(Commanded(seq, obs.label, why, obs.mask))
+                    if seq == 1 and started is not None and stream.is_file:
+                        stream.hold()
+                        started.wait(HOLD_SECONDS)
+                        stream.play()
+        finally:
+            done.set()
+            republisher.join()
+
+
+@contextlib.contextmanager
+def _said_how_a_file_ended(source: str, log: EventLog) -> Iterator[None]:
+    """A video file's end inside: its End note, and a StreamError saying why when it ended before anything was
+    commanded (the last reason logged, "no hand found: ..."). A live stream's end goes on as it is."""
     try:
-        _observe_stream(
-            source,
-            stream_params,
-            n_agents,
-            controller,
-            secret,
-            pub,
-            stop,
-            period,
-            rule,
-            subject,
-            log,
-            started,
-            ros2_router,
-        )
+        yield
     except StreamEnded as exc:
         if not getattr(exc, "is_file", False):
             raise
@@ -310,99 +383,3 @@ def run_camera(
                 f"camera {source}: the video ended after {exc.frames} frames without a "
                 f"{exc.subject or 'hand or person'} seen" + (f" ({log.last})" if log.last else "")
             ) from None
-
-
-def _observe_stream(
-    source,
-    stream_params,
-    n_agents,
-    controller,
-    secret,
-    pub,
-    stop,
-    period,
-    rule,
-    subject,
-    log,
-    started,
-    ros2_router="",
-) -> None:
-    current: list[bytes] = []
-    # The republisher ends with this function (`done`) and is joined: the caller undeclares `pub` next, and a put
-    # still running on it made that undeclare fail ("Already borrowed": test_camera in a fresh-clone CI).
-    done = threading.Event()
-
-    def republish() -> None:
-        while not done.wait(period) and not stop.is_set():
-            if current:
-                pub.put(current[-1])
-
-    republisher = threading.Thread(target=republish, name="republish", daemon=True)
-    republisher.start()
-    try:
-        switch = CommandSwitch(rule)
-        transform = None
-        seq = 0
-        observer = None
-        # The hand observer (its classifier and the modules it loads, ~0.2 s) is ready before the stream opens: a
-        # video file plays in real time from its open, and what loads after that is frames lost before the swarm's
-        # first command, and time the swarm does not get to form the later gestures.
-        hands = HandObserver() if subject in ("hand", "auto") else None
-        with open_stream(source, stream_params, ros2_router) as stream:
-
-            def frames():
-                try:
-                    while not stop.is_set():
-                        yield stream.next()
-                except StreamEnded as exc:
-                    exc.is_file, exc.frames, exc.commanded = stream.is_file, stream.frames_read, seq > 0
-                    exc.subject = observer.subject if observer is not None else None
-                    raise
-
-            source_frames = frames()
-            first: list[np.ndarray] = []
-            if subject == "auto":
-                assert hands is not None  # made above for "auto"
-                for f in source_frames:
-                    first.append(f)
-                    if len(first) == AUTO_FRAMES:
-                        break
-                subject = choose_subject(first, hands)
-                observer = hands if subject == "hand" else LiveObserver(rule.window)
-                log.write(Subject(subject, "auto", len(first)))
-            else:
-                observer = hands if hands is not None else LiveObserver(rule.window)
-                log.write(Subject(subject, "given"))
-            for frame in itertools.chain(first, source_frames):
-                obs = observer.observe(frame)
-                log.missing(observer.missing)
-                if obs is None:
-                    continue
-                now = time.monotonic()
-                why = switch.update(obs, now)
-                if why is None:
-                    continue
-                try:  # the first observation fixes the image -> domain map (the launcher places the swarm from it)
-                    shown = transform or transform_for(obs.mask, n_agents, controller_of(controller))
-                    cmd = build_command(obs, shown, n_agents, controller, seq=seq + 1)
-                    seen = seen_note(obs, seq + 1) if transform is None else None
-                except (ShapeError, ValueError) as exc:  # a silhouette the swarm cannot take: wait
-                    log.missing(f"no shape the swarm can take: {exc}")
-                    continue
-                transform = shown
-                seq += 1
-                switch.commit(obs, now)
-                payload = cmd.encode(secret)
-                current.append(payload)
-                del current[:-1]
-                pub.put(payload)
-                if seen is not None:  # before its command's note: the launcher waits for it to place the swarm
-                    log.write(seen)
-                log.write(Commanded(seq, obs.label, why, obs.mask))
-                if seq == 1 and started is not None and stream.is_file:
-                    stream.hold()
-                    started.wait(HOLD_SECONDS)
-                    stream.play()
-    finally:
-        done.set()
-        republisher.join()
