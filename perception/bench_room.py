@@ -22,6 +22,10 @@ import numpy as np
 from agent.protocol.errors import UserError
 
 FIVE = ("0", "1", "2", "4", "5")
+# How a pasted hand ends at the frame's bottom edge: the width of its bottom rows over its widest row's. A wrist is
+# narrow; a photograph that cuts through the palm leaves it wide, and the composite sets that cut on the edge as if
+# it were a wrist (no wrist, no forearm: docs/perception.md, issue 50 session 10, most of the hands missed).
+HAND_ENDS = ((0.7, "wrist (< 0.7)"), (0.85, "0.7-0.85"), (float("inf"), "palm cut (>= 0.85)"))
 
 
 @dataclass
@@ -55,6 +59,14 @@ class Tally:
         self.ious += other.ious
         self.ms += other.ms
         self.cpu_ms += other.cpu_ms
+
+
+def hand_end(truth: np.ndarray) -> str:
+    """Which of HAND_ENDS the pasted hand's mask `truth` (bool, its wrist on the bottom edge) falls in."""
+    ys = np.nonzero(truth.any(1))[0]
+    rows = truth[ys.min() : ys.max() + 1].sum(1)
+    ratio = float(rows[-3:].mean() / max(int(rows.max()), 1))
+    return next(name for limit, name in HAND_ENDS if ratio < limit)
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -136,6 +148,7 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
             f"load={load:.2f}"
         )
         new_all, old_all, person_rows = Tally(), Tally(), []
+        by_end = {name: [0, 0] for _, name in HAND_ENDS}  # today's reading: [hands, found] by hand_end
         lines = []
         for fam in fams:
             make = cm.background_maker(fam, photos, walls)
@@ -148,6 +161,8 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                 frame, truth = cm.paste_hand(make(rng), photo, hand_mask(photo), rng)
                 frame = cm.degrade(frame, rng)
                 empty = cm.degrade(make(rng), rng)
+                end = by_end[hand_end(truth)]
+                end[0] += 1
                 for tally, learned in ((new, True), (old, False)):
                     tally.hands += 1
                     t0, c0 = time.perf_counter(), time.process_time()
@@ -159,6 +174,7 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                     tally.cpu_ms.append(1000 * (time.process_time() - c0))
                     if h is not None:
                         tally.found += 1
+                        end[1] += learned
                         tally.ious.append(_iou(h.mask, truth))
                         tally.right10 += h.label == label
                     if label in FIVE:  # the five-class classifier's accuracy on the hands it found
@@ -218,6 +234,11 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
         pn, pf, pfalse = pn + n, pf + found, pfalse + false
         pious += ious
     print()
+    print(
+        "detection_by_hand_end: "
+        + ", ".join(f"{name} {f}/{n} ({f / max(n, 1):.3f})" for name, (n, f) in by_end.items())
+        + " (the pasted hand's bottom rows over its widest row)"
+    )
     a = new_all
     print(
         f"hand_detection={a.found / max(a.hands, 1):.4f} mask_iou={np.mean(a.ious) if a.ious else 0:.4f} "
