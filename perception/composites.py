@@ -9,7 +9,13 @@ the same seed, the same frame.
 
 A hand (`paste_hand`): a shared photograph's hand, cut out by `hand_mask` (99.9 % plausible on the set), scaled
 so it is 20-50 % of the frame's height, its wrist on the bottom edge (an arm reaching up into the picture),
-at a random column; its edge feathered over ~2 px (a camera's edges are not hard). A person
+at a random column; its edge feathered over ~2 px (a camera's edges are not hard). A photograph that cuts
+through the palm (`bottom_ratio` >= PALM_CUT: its bottom rows as wide as the hand) has no wrist to set on the
+edge: the hand is raised and a forearm drawn below the cut to the bottom edge (`_forearm`: the rest of the
+palm narrowing to a wrist, then the forearm widening slightly; its colour and texture the hand's own bottom
+rows), feathered with the hand. Such a hand's true mask ends at the drawn wrist line (the hand and the rest of
+its palm; the forearm beyond is no part of the gesture, as the pipeline's silhouette cuts it near the wrist):
+the benchmark scores both masks above that line (issue 50 session 11). A person
 (`paste_person`): a Weizmann frame's silhouette (the project's own, perception/person.py) scaled to 55-85 % of
 the height, feet at a random row of the lower part. The true mask is where the pasted alpha is >= 0.5.
 `degrade`: a lighting ramp across the frame, gamma and white-balance drift, blur, sensor noise, JPEG.
@@ -32,6 +38,12 @@ FAMILIES = ("plain", "photo", "wood", "stripes", "noise", "skin", "weizmann")
 # (none shows a person: astronaut and camera, a cameraman, do, so a hand-free frame of them is no empty room)
 PHOTOS = ("chelsea", "coffee", "rocket", "brick", "grass", "gravel", "coins", "moon")
 HELD_PHOTOS = ("hubble_deep_field", "immunohistochemistry", "retina", "text", "page", "horse", "logo", "colorwheel")
+# A photograph cut through the palm: its mask's bottom rows at least this share of its widest row (a wrist: < 0.7)
+PALM_CUT = 0.85
+# the forearm drawn below such a cut, in the cut's width c and the pasted hand's height h: the rest of the palm
+# narrows to a wrist of WRIST_NARROW c over WRIST_ROWS c, then the forearm widens to FOREARM_WIDEN c at the bottom
+# edge, FOREARM_LENGTH h below the cut in all
+WRIST_ROWS, WRIST_NARROW, FOREARM_WIDEN, FOREARM_LENGTH = 0.35, 0.75, 0.85, 0.5
 
 
 @dataclass(frozen=True)
@@ -160,20 +172,85 @@ def _feather(mask: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def paste_hand(
-    bg: np.ndarray, photo: np.ndarray, mask: np.ndarray, rng: np.random.Generator
+    bg: np.ndarray, photo: np.ndarray, mask: np.ndarray, rng: np.random.Generator, forearm: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
     """(frame, true mask): the photograph's hand (`mask`) 20-50 % of the frame's height, wrist on the bottom,
-    at a random column."""
+    at a random column (a palm the photograph cut: on a drawn forearm; `forearm` False: that cut on the bottom
+    edge, as a hand whose wrist is below the frame, the composite before issue 50 session 11)."""
     share = rng.uniform(0.2, 0.5)
     ys, xs = np.nonzero(mask)
     width = (xs.max() - xs.min() + 1) * share * H / (ys.max() - ys.min() + 1)
-    return _place(bg, photo, mask, int(rng.integers(0, max(1, W - int(width)))), share, rng)
+    return _place(bg, photo, mask, int(rng.integers(0, max(1, W - int(width)))), share, rng, forearm)
+
+
+def bottom_ratio(mask: np.ndarray) -> float:
+    """The width of `mask`'s bottom 3 rows over its widest row's: a wrist is narrow (< 0.7), a photograph cut
+    through the palm wide (>= PALM_CUT)."""
+    ys = np.nonzero(mask.any(1))[0]
+    rows = mask[ys.min() : ys.max() + 1].sum(1)
+    return float(rows[-3:].mean() / max(int(rows.max()), 1))
+
+
+def _forearm(src: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """(picture, mask, wrist row): `src`/`m` (a hand whose palm the photograph cut, the cut on its bottom row)
+    with a forearm drawn below the cut: FOREARM_LENGTH of the hand's height long, centred under the cut, the
+    rest of the palm narrowing to the wrist (WRIST_ROWS, WRIST_NARROW), the forearm widening slightly below it;
+    each row the colour profile across the hand's bottom rows stretched to its width, with their grain. The
+    wrist row is the narrowing's end in the returned picture."""
+    h, w = m.shape
+    cols = np.nonzero(m[-3:].any(0))[0]
+    c0, c1 = int(cols.min()), int(cols.max()) + 1
+    cut = c1 - c0
+    centre = (c0 + c1) / 2
+    length = max(int(round(FOREARM_LENGTH * h)), 4)
+    wrist = min(max(int(round(WRIST_ROWS * cut)), 2), length - 1)
+    k = max(3, int(round(0.08 * h)))
+    strip = src[h - k :, c0:c1].astype(np.float32)
+    skin = m[h - k :, c0:c1]
+    # the forearm's colour across it: the mean of each column of the hand's bottom rows (its shading from
+    # side to side), columns without hand there taking the rows' mean; smoothed over a few columns
+    mean = strip[skin].mean(0) if skin.any() else strip.reshape(-1, 3).mean(0)
+    counts = skin.sum(0)
+    profile = np.where(counts[:, None] > 0, (strip * skin[..., None]).sum(0) / np.maximum(counts, 1)[:, None], mean)
+    profile = cv2.GaussianBlur(profile[None].astype(np.float32), (0, 0), sigmaX=max(1.0, cut / 30), sigmaY=0.1)[0]
+    # its texture: the bottom rows' own grain about that profile, as a seeded noise of the same spread (the
+    # photograph's pixels, so the same hand gets the same forearm; no draw from the composite's generator)
+    grain = float(np.std(strip[skin] - profile[np.nonzero(skin)[1]])) if skin.any() else 4.0
+    noise = np.random.default_rng(int(src.sum()) % (2**32))
+    half = max(int(np.ceil(cut * max(1.0, FOREARM_WIDEN) / 2)) + 1, 1)
+    left = int(np.floor(min(centre - half, c0)))
+    right = int(np.ceil(max(centre + half, c1)))
+    pad_l, pad_r = max(0, -left), max(0, right - w)
+    pic = np.zeros((h + length, w + pad_l + pad_r, 3), np.uint8)
+    mk = np.zeros(pic.shape[:2], bool)
+    pic[:h, pad_l : pad_l + w] = src
+    mk[:h, pad_l : pad_l + w] = m
+    for r in range(length):
+        t = r / wrist if r < wrist else 1.0
+        width = (
+            cut * (1 - (1 - WRIST_NARROW) * t)
+            if r < wrist
+            else cut * (WRIST_NARROW + (FOREARM_WIDEN - WRIST_NARROW) * (r - wrist) / max(length - 1 - wrist, 1))
+        )
+        n = max(int(round(width)), 2)
+        a = int(round(centre - n / 2)) + pad_l
+        row = cv2.resize(profile[None], (n, 1), interpolation=cv2.INTER_LINEAR)[0]
+        pic[h + r, a : a + n] = np.clip(row + noise.normal(0, 0.35 * min(grain, 12.0), (n, 1)), 0, 255).astype(np.uint8)
+        mk[h + r, a : a + n] = True
+    return pic, mk, h + wrist
 
 
 def _place(
-    bg: np.ndarray, photo: np.ndarray, mask: np.ndarray, px: int, share: float, rng: np.random.Generator
+    bg: np.ndarray,
+    photo: np.ndarray,
+    mask: np.ndarray,
+    px: int,
+    share: float,
+    rng: np.random.Generator,
+    forearm: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The hand `share` of the frame's height, its left edge at column `px`, wrist on the bottom edge."""
+    """The hand `share` of the frame's height, its left edge at column `px`, wrist on the bottom edge (a palm
+    the photograph cut: raised on a drawn forearm, the true mask ending at its wrist line)."""
     # the photograph's bright wall round the hand painted over with the hand's own edge colours, so the
     # feathered edge blends hand into room, not a white halo
     grown = np.asarray(cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8))) > 0
@@ -184,10 +261,20 @@ def _place(
     s = share * H / (y1 - y0)
     src = cv2.resize(photo[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_CUBIC)
     m = cv2.resize(mask[y0:y1, x0:x1].astype(np.uint8), (src.shape[1], src.shape[0]), interpolation=cv2.INTER_NEAREST)
+    wrist = None
+    if forearm and bottom_ratio(mask) >= PALM_CUT:  # decided on the photograph's own mask, never on a reading
+        w0 = src.shape[1]
+        src, mb, wrist = _forearm(src, m.astype(bool))
+        px -= (src.shape[1] - w0) // 2
+        m = mb.astype(np.uint8)
     alpha = _feather(m.astype(bool), rng.uniform(0.8, 2.0))
-    # the wrist (cut by the photograph's bottom edge) stays solid to the frame's edge
+    # the wrist (cut by the photograph's bottom edge) or forearm stays solid to the frame's edge
     alpha[-3:] = np.maximum(alpha[-3:], m[-3:].astype(np.float32))
-    return _paste(bg, src, alpha, min(max(0, px), max(0, W - src.shape[1])), H - src.shape[0])
+    y = H - src.shape[0]
+    frame, truth = _paste(bg, src, alpha, min(max(0, px), max(0, W - src.shape[1])), y)
+    if wrist is not None:
+        truth[max(0, y + wrist) :] = False  # scored above the wrist line
+    return frame, truth
 
 
 def paste_person(

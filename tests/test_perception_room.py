@@ -36,12 +36,18 @@ def held_out(shared_hands, cls: int, k: int = 0) -> np.ndarray:
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Mask IoU; `b` a pasted hand's true mask: both above its lowest row (a hand on a drawn forearm is scored
+    above its wrist line, as bench-perception does; a hand whose wrist is on the bottom edge, all of it)."""
+    rows = slice(0, int(np.nonzero(b.any(1))[0].max()) + 1) if b.any() else slice(None)
+    a, b = a[rows], b[rows]
     return float((a & b).sum() / max((a | b).sum(), 1))
 
 
-def composite(photo: np.ndarray, family: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def composite(photo: np.ndarray, family: str, seed: int, forearm: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """A held-out photograph's hand in a room (`forearm` False: a palm the photograph cut set on the bottom edge,
+    as a hand whose wrist is below the frame: the composites before issue 50 session 11)."""
     rng = np.random.default_rng(seed)
-    frame, truth = cm.paste_hand(cm.background_maker(family)(rng), photo, hand_mask(photo), rng)
+    frame, truth = cm.paste_hand(cm.background_maker(family)(rng), photo, hand_mask(photo), rng, forearm)
     return cm.degrade(frame, rng, 0.5), truth
 
 
@@ -86,7 +92,7 @@ def test_a_hand_no_palm_view_finds_is_read_in_the_bottom_boxes(shared_hands, clf
     import perception.hand_detector as hd
     import perception.landmarks as lmk
 
-    frame, truth = composite(held_out(shared_hands, 7), "stripes", 52)
+    frame, truth = composite(held_out(shared_hands, 7), "stripes", 52, forearm=False)  # its wrist below the frame
     boxes = lmk.bottom_boxes(480, 640)
     assert len(boxes) == 18 and all(b[1] + b[2] / 2 > 480 for b in boxes)  # each reaches below the edge
     hands = find_landmarks(frame)
@@ -128,7 +134,8 @@ def test_hands_in_front_of_clutter_are_found_with_their_silhouettes_and_classes(
             right += hand.label == str(cls)
     print(f"found {found} of 12, named right {right}, mask IoU {np.mean(ious):.3f}")
     # measured: 6 found (a 5 on stripes by its steady landmarks; the others refused: no hand seen, or the
-    # landmarks and the silhouette name different classes), 6 right, IoU 0.84; issue 50 wants 90 % found
+    # landmarks and the silhouette name different classes), 6 right, IoU 0.84; issue 50 wants 90 % found.
+    # Session 11 (palm-cut photographs on a drawn forearm, scored above its wrist line): 9 found, 9 right, 0.814
     assert found >= 4, found
     assert np.mean(ious) >= 0.8, ious  # issue 50: mask IoU >= 0.80
     assert right >= found - 1, (right, found)
@@ -154,10 +161,11 @@ def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_han
             find_hand(frame, clf)
         monkeypatch.setattr(hd, "steady_pose", steady)
     poses = hd.poses_for(clf)
-    frame, _ = composite(held_out(shared_hands, 1), "skin", 1)
+    # these two photographs are cut through the palm: set on the bottom edge, their wrists below the frame
+    frame, _ = composite(held_out(shared_hands, 1), "skin", 1, forearm=False)
     with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 1, landmarks: 2\\)"):
         find_hand(frame, clf)
-    frame, _ = composite(held_out(shared_hands, 2), "noise", 2)
+    frame, _ = composite(held_out(shared_hands, 2), "noise", 2, forearm=False)
     with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 6, landmarks: 2\\)"):
         find_hand(frame, clf)
     lm = find_landmarks(frame)[0]
