@@ -20,13 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agent.protocol.errors import UserError
+from perception.composites import HAND_ENDS, bottom_ratio
 
 FIVE = ("0", "1", "2", "4", "5")
-# How the photograph's hand ends at its bottom: the width of its bottom rows over its widest row's. A wrist is
-# narrow; a photograph that cuts through the palm leaves it wide (until issue 50 session 11 the composite set that
-# cut on the frame's edge as if it were a wrist, most of the hands missed: docs/perception.md; now it draws a
-# forearm below it, perception/composites.py).
-HAND_ENDS = ((0.7, "wrist (< 0.7)"), (0.85, "0.7-0.85"), (float("inf"), "palm cut (>= 0.85)"))
 
 
 @dataclass
@@ -64,8 +60,6 @@ class Tally:
 
 def hand_end(mask: np.ndarray) -> str:
     """Which of HAND_ENDS a hand's mask (bool, the photograph's: its wrist or cut at the bottom) falls in."""
-    from perception.composites import bottom_ratio
-
     ratio = bottom_ratio(mask)
     return next(name for limit, name in HAND_ENDS if ratio < limit)
 

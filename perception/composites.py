@@ -40,6 +40,16 @@ PHOTOS = ("chelsea", "coffee", "rocket", "brick", "grass", "gravel", "coins", "m
 HELD_PHOTOS = ("hubble_deep_field", "immunohistochemistry", "retina", "text", "page", "horse", "logo", "colorwheel")
 # A photograph cut through the palm: its mask's bottom rows at least this share of its widest row (a wrist: < 0.7)
 PALM_CUT = 0.85
+# How the photograph's hand ends at its bottom, by `bottom_ratio` (bench-perception's detections are split so,
+# bench_room's detection_by_hand_end): a wrist is narrower than WRIST_END of the widest row; a photograph that cuts
+# through the palm leaves it PALM_CUT or wider (until issue 50 session 11 the composite set that cut on the frame's
+# edge as if it were a wrist, most of the hands missed: docs/perception.md; now `_forearm` draws one below it)
+WRIST_END = 0.7
+HAND_ENDS = (
+    (WRIST_END, f"wrist (< {WRIST_END})"),
+    (PALM_CUT, f"{WRIST_END}-{PALM_CUT}"),
+    (float("inf"), f"palm cut (>= {PALM_CUT})"),
+)
 # the forearm drawn below such a cut, in the cut's width c and the pasted hand's height h: the rest of the palm
 # narrows to a wrist of WRIST_NARROW c over WRIST_ROWS c, then the forearm widens to FOREARM_WIDEN c at the bottom
 # edge, FOREARM_LENGTH h below the cut in all
