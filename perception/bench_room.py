@@ -155,10 +155,7 @@ def run(hands: int = 20, seed: int = 0, families: tuple[str, ...] | None = None,
                 label = names[yte[i]]
                 pmask = hand_mask(photo)
                 frame, truth = cm.paste_hand(make(rng), photo, pmask, rng)
-                # scored above the true mask's lowest row: a hand on a drawn forearm (a palm the photograph
-                # cut) above its wrist line, as the pipeline's silhouette cuts the forearm near the wrist; a
-                # hand whose wrist is on the bottom edge, the whole frame
-                scored = slice(0, int(np.nonzero(truth.any(1))[0].max()) + 1)
+                scored = cm.scored_rows(truth)
                 frame = cm.degrade(frame, rng)
                 empty = cm.degrade(make(rng), rng)
                 end = by_end[hand_end(pmask)]

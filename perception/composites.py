@@ -201,6 +201,13 @@ def bottom_ratio(mask: np.ndarray) -> float:
     return float(rows[-3:].mean() / max(int(rows.max()), 1))
 
 
+def scored_rows(truth: np.ndarray) -> slice:
+    """The rows a pasted hand's masks are compared on: down to its true mask's lowest row (a hand on a drawn
+    forearm above its wrist line, as the pipeline's silhouette cuts the forearm near the wrist; a hand whose wrist
+    is on the bottom edge, all of them)."""
+    return slice(0, int(np.nonzero(truth.any(1))[0].max()) + 1) if truth.any() else slice(None)
+
+
 def _forearm(src: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """(picture, mask, wrist row): `src`/`m` (a hand whose palm the photograph cut, the cut on its bottom row)
     with a forearm drawn below the cut: FOREARM_LENGTH of the hand's height long, centred under the cut, the

@@ -38,7 +38,7 @@ def held_out(shared_hands, cls: int, k: int = 0) -> np.ndarray:
 def iou(a: np.ndarray, b: np.ndarray) -> float:
     """Mask IoU; `b` a pasted hand's true mask: both above its lowest row (a hand on a drawn forearm is scored
     above its wrist line, as bench-perception does; a hand whose wrist is on the bottom edge, all of it)."""
-    rows = slice(0, int(np.nonzero(b.any(1))[0].max()) + 1) if b.any() else slice(None)
+    rows = cm.scored_rows(b)
     a, b = a[rows], b[rows]
     return float((a & b).sum() / max((a | b).sum(), 1))
 
