@@ -52,7 +52,7 @@ def test_the_crates_spec_fields_left_out_are_the_python_defaults():
 
 # --- no default written twice -----------------------------------------------------------------------------------
 
-PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm")
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm", "research")
 ROOT = Path(__file__).resolve().parent.parent
 
 # (what, value) -> the one module that writes it as a literal (None: no Python module does, the crate declares it

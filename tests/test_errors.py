@@ -10,7 +10,7 @@ from pathlib import Path
 from agent.protocol.errors import FluidswarmError
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm")
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm", "research")
 NOT_YET: set[str] = set()
 
 

@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm")
+PACKAGES = ("agent", "swarmhost", "coordinator", "perception", "ros2link", "fluidswarm", "research")
 
 # Lowest first, each entry a package (a folder): a module belongs to the layer of its innermost listed folder
 # (agent/sph/ is physics, agent/ around it the compiled records); a module may import from its own layer and the
@@ -35,6 +35,8 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # the command line; a lower package's subcommand registration (perception/commands.py) stays in its folder's
     # layer: the command line imports it, it imports nothing above its folder
     ("application", ("fluidswarm",)),
+    # the research tools, outside the wheel (research/__init__.py): they may use every package, none uses them
+    ("research", ("research",)),
 ]
 
 

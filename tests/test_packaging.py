@@ -56,6 +56,9 @@ def test_every_source_package_is_listed_and_the_scenarios_are_one():
     assert set(SETUPTOOLS["packages"]) == found | {PACKAGED_SCENARIOS}
     assert package_dir(PACKAGED_SCENARIOS) == REPO / "scenarios"  # the top-level folder stays where it is
     assert scenarios_dir() == REPO / "scenarios"  # a source tree reads it in place
+    # the research tools (research/: the thesis reproduction) stay outside the wheel
+    assert (REPO / "research" / "__init__.py").is_file()
+    assert not {p for p in SETUPTOOLS["packages"] if p.split(".")[0] == "research"}
 
 
 def test_every_file_of_the_packages_and_the_scenarios_ships():

@@ -1,21 +1,26 @@
-"""`fluidswarm reproduce --quick`: the thesis' claims re-measured, written as a report with plots."""
+"""`python -m research reproduce --quick` (research/, outside the wheel): the thesis' claims re-measured, written as a
+report with plots."""
 
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
-from fluidswarm.reproduce.allpairs import AllPairsDriver
+from research.reproduce.allpairs import AllPairsDriver
+
+REPO = Path(__file__).resolve().parents[1]  # research/ is run from a checkout: `python -m research`
 
 
 @pytest.mark.swarm
 def test_quick_reproduction_writes_a_row_with_numbers_per_claim(tmp_path):
     r = subprocess.run(
-        [sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(tmp_path)],
+        [sys.executable, "-m", "research", "reproduce", "--quick", "--out", str(tmp_path)],
+        cwd=REPO,
         capture_output=True,
         text=True,
         timeout=120,
@@ -43,12 +48,14 @@ def test_bad_out_is_one_line_error(tmp_path):
     f = tmp_path / "file.txt"
     f.write_text("x")
     r = subprocess.run(
-        [sys.executable, "-m", "fluidswarm", "reproduce", "--quick", "--out", str(f)],
+        [sys.executable, "-m", "research", "reproduce", "--quick", "--out", str(f)],
+        cwd=REPO,
         capture_output=True,
         text=True,
         timeout=60,
     )
     assert r.returncode == 1 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert r.stderr.startswith(f"python -m research reproduce: error: --out {f}: not a folder"), r.stderr
 
 
 def test_independent_all_pairs_equations_match_the_agent_step():

@@ -11,7 +11,7 @@ A second lag, in the stress: the stress rate of configuration n (eq. 3.11, weigh
 with the neighbours' density as their states carry it, i.e. of configuration n-1, since their density of
 configuration n is only published with their next state. That stress enters the forces at step n+1, so
 there it uses the neighbours' density of two configurations before. The thesis' flow chart (Fig. 3.5,
-two exchanges) would use the current one; `fluidswarm reproduce` measures both
+two exchanges) would use the current one; `python -m research reproduce` measures both
 (docs/thesis-reproduction.md).
 """
 

@@ -1,9 +1,9 @@
 """What one `fluidswarm bench` measured, typed once: `BenchRecord`.
 
 `bench --json` prints it as one JSON object on stdout, and docs/benchmarks/results.json is the same object
-(indented); `fluidswarm reproduce`, the tests and ../shared/tools/acceptance read that. `BenchRecord.from_dict`
-checks every field (a file can be stale or edited by hand), so a reader gets one error naming the key, not a
-KeyError deep inside. Times in s unless the name says ms; memory in MB.
+(indented); the thesis reproduction (research/), the tests and ../shared/tools/acceptance read that.
+`BenchRecord.from_dict` checks every field (a file can be stale or edited by hand), so a reader gets one error
+naming the key, not a KeyError deep inside. Times in s unless the name says ms; memory in MB.
 
 The README's benchmark figures are written from the record too (`readme_section`, `with_readme_section`;
 `fluidswarm bench --readme`), and tests/test_docs.py fails when the README and results.json differ.

@@ -1,4 +1,4 @@
-"""`fluidswarm reproduce [--quick] [--out DIR]`: every claim group, then the report and its plots."""
+"""`python -m research reproduce [--quick] [--out DIR]`: every claim group, then the report and its plots."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import time
 from pathlib import Path
 
 from agent.protocol.errors import UserError
-from fluidswarm.reproduce import classifier, decentralised, equations, gestures, report, stiffness, timings, viscosity
-from fluidswarm.reproduce.claim import Context
+from research.reproduce import classifier, decentralised, equations, gestures, report, stiffness, timings, viscosity
+from research.reproduce.claim import Context
 
 GROUPS = (stiffness, viscosity, equations, decentralised, gestures, classifier, timings)
 REPORT_NAME = "thesis-reproduction.md"
@@ -41,7 +41,7 @@ def run(args) -> int:
         groups += found
         rows = sum(len(g.claims) for g in found)
         print(f"{module.__name__.rsplit('.', 1)[-1]}: {rows} claims in {time.perf_counter() - t:.1f} s", flush=True)
-    command = "fluidswarm reproduce" + (" --quick" if args.quick else "")
+    command = "python -m research reproduce" + (" --quick" if args.quick else "")
     path = report.write(out / REPORT_NAME, groups, args.quick, time.perf_counter() - t0, command)
     claims = [c for g in groups for c in g.claims]
     for verdict in ("agree", "disagree", "not comparable"):

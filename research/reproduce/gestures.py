@@ -17,8 +17,8 @@ from agent.sph.setups import lattice
 from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.region import body_region_command
 from coordinator.control.route import followers_for
-from fluidswarm.reproduce import plots
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce import plots
+from research.reproduce.claim import Claim, Context, Group, Verdict
 
 INPUTS = Path(__file__).resolve().parents[2] / "scenarios" / "inputs"
 GESTURES = (

@@ -8,7 +8,7 @@ import json
 import subprocess
 import sys
 
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce.claim import Claim, Context, Group, Verdict
 
 AGENTS, STEPS = 16, 60
 

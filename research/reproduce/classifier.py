@@ -8,10 +8,10 @@ import time
 
 import numpy as np
 
-from fluidswarm.reproduce import plots
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
 from perception.dataset import SHARED_HANDS, load_folder, shared_split
 from perception.eigen import EigenClassifier
+from research.reproduce import plots
+from research.reproduce.claim import Claim, Context, Group, Verdict
 
 CLASSES = ["0", "1", "2", "4", "5"]
 COMPONENTS = (5, 15, 30, 35, 50)

@@ -1,4 +1,4 @@
-"""`fluidswarm reproduce`: the thesis' quantitative claims, re-measured on the reference drivers.
+"""`python -m research reproduce`: the thesis' quantitative claims, re-measured on the reference drivers.
 
 One module per group of claims (`stiffness`, `viscosity`, `equations`, `gestures`, `classifier`,
 `timings`); each returns `Group`s of `Claim` records (`claim.py`), which `report.py` writes to

@@ -11,8 +11,8 @@ from agent.sph.reference import VectorisedDriver
 from coordinator.control.imitation_setup import imitation_of_input
 from coordinator.control.route import followers_for
 from fluidswarm.orchestration.bench_record import BenchRecord
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
-from fluidswarm.reproduce.gestures import INPUTS
+from research.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce.gestures import INPUTS
 
 RESULTS = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "results.json"
 THESIS = {"scissor": (187, 126), "cylindrical": (214, 136), "pinching": (219, 141)}  # step size 7, 10

@@ -6,7 +6,7 @@ import os
 from collections import Counter
 from pathlib import Path
 
-from fluidswarm.reproduce.claim import Group, Verdict
+from research.reproduce.claim import Group, Verdict
 
 
 def _cell(text: str) -> str:
@@ -27,7 +27,7 @@ def write(path: Path, groups: list[Group], quick: bool, seconds: float, command:
         + command
         + "`"
         + (" (reduced set)" if quick else "")
-        + f" in {seconds:.0f} s; do not edit by hand. Code: `fluidswarm/reproduce/`.",
+        + f" in {seconds:.0f} s; do not edit by hand. Code: `research/reproduce/`.",
         "",
         (
             f"**{len(claims)} rows: {counts[Verdict.AGREE]} agree, {counts[Verdict.DISAGREE]} disagree, "

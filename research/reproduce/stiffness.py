@@ -16,9 +16,9 @@ import numpy as np
 from agent.sph.params import Border, SPHParams
 from agent.sph.particle import FROZEN, Y
 from agent.sph.setups import branch_gap, branching
-from fluidswarm.reproduce import plots
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
-from fluidswarm.reproduce.runs import record
+from research.reproduce import plots
+from research.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce.runs import record
 
 MIDDLE, EDGES = [1], [0, 2]
 DOMAIN = (-20.0, 100.0, -40.0, 50.0)

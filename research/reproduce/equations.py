@@ -8,10 +8,10 @@ import numpy as np
 from agent.sph.particle import SXX, SYY
 from agent.sph.reference import PerParticleDriver
 from agent.sph.setups import spread_block
-from fluidswarm.reproduce.allpairs import AllPairsDriver
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
-from fluidswarm.reproduce.runs import record
-from fluidswarm.reproduce.stiffness import EDGES, MIDDLE, free
+from research.reproduce.allpairs import AllPairsDriver
+from research.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce.runs import record
+from research.reproduce.stiffness import EDGES, MIDDLE, free
 
 
 def one_step_differences(steps: int, skip: int = 0, **options) -> float:
@@ -41,7 +41,7 @@ def measure(ctx: Context) -> list[Group]:
     steps = ctx.steps(100, 30)
     g = Group("The equations and the one-exchange protocol (thesis eq. 3.5-3.13, Fig. 3.5)")
     g.notes.append(
-        "`fluidswarm/reproduce/allpairs.py` writes eq. 3.3-3.13 and 6.2 again, dense over all pairs, without "
+        "`research/reproduce/allpairs.py` writes eq. 3.3-3.13 and 6.2 again, dense over all pairs, without "
         "agent/sph's equation functions. From the same state, one step of it is compared with one step of the "
         f"per-particle reference (`agent/sph/reference.py`, what every agent runs) for {steps} steps of the "
         "`verify` set-up (`spread_block`, 64 particles, pressure, artificial viscosity, viscous stress and body "

@@ -14,9 +14,9 @@ from agent.sph.params import Border, SPHParams
 from agent.sph.particle import RHO, VX, VY, Control, X, Y, initial_state
 from agent.sph.reference import VectorisedDriver
 from agent.sph.setups import lattice
-from fluidswarm.reproduce import plots
-from fluidswarm.reproduce.allpairs import AllPairsDriver, acceleration, fluid_quantities
-from fluidswarm.reproduce.claim import Claim, Context, Group, Verdict
+from research.reproduce import plots
+from research.reproduce.allpairs import AllPairsDriver, acceleration, fluid_quantities
+from research.reproduce.claim import Claim, Context, Group, Verdict
 
 RING1 = (0.0, 1.5)  # the nearest neighbours: spacing 1 and sqrt(2)
 RING2 = (1.5, 3.0)  # the next ones: spacing 2, sqrt(5), sqrt(8), 3 (beyond the 2h support of the pushed one)
