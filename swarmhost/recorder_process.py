@@ -41,6 +41,7 @@ class RecorderProcess:
         self.id_keys = id_keys  # the agents put states on their id keys (per-process rights)
         self.proc: subprocess.Popen | None = None
         self._stderr: IO[str] | None = None  # its error output (a file, never a pipe it could fill), for last_words()
+        self.words = ""  # its last line on stderr, kept when stop() closes that file
 
     def start(
         self,
@@ -118,6 +119,7 @@ class RecorderProcess:
             return None
         stop_process(self.proc, timeout)
         if self._stderr is not None:
+            self.words = self.last_words()
             self._stderr.seek(0)
             for line in self._stderr.read().splitlines():
                 if line.startswith("ros2: "):  # the ROS 2 bridge's notes (an absent or lost router) are the user's

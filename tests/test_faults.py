@@ -17,7 +17,7 @@ import pytest
 from agent.protocol.access import AGENT_CAPACITY
 from agent.protocol.events import EventKind
 from agent.sph.setups import spread_block
-from fluidswarm.recording.reader import check, load_run
+from fluidswarm.recording.reader import check, finished, load_run
 from swarmhost.helpers import HelperLost
 from swarmhost.launcher import Launcher, run_swarm
 from swarmhost.router_host import free_port
@@ -197,6 +197,35 @@ def test_a_killed_recorder_ends_the_run_and_its_file_keeps_every_step_older_than
     kept = {f.step: len(f.ids) for f in run.frames}
     print(f"swarm at step {max(due)} 1 s before the kill; the file keeps steps 0..{max(kept)}")
     assert all(kept.get(s) == 30 for s in range(max(due) + 1))
+
+
+def test_a_launch_whose_recorder_is_killed_names_it_and_leaves_its_file_finished(tmp_path):
+    # The run's end rewrites a file left without its footer (recording/recover.py after_recorder): readable by
+    # any MCAP tool, every step the recorder had flushed, and the kill named beside the lost helper.
+    path = tmp_path / "run.mcap"
+    port = free_port()
+    cmd = [sys.executable, "-m", "fluidswarm", "launch", "-n", "20", "--steps", "100000", "--record", str(path)]
+    proc = subprocess.Popen(
+        [*cmd, "--live", f"127.0.0.1:{port}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().startswith("run=")
+        seen = wait_for_live_step(port, 200)  # > 1 s of steps: flushed to the file (writer.py FLUSH_SECONDS)
+        recorders = [p for p in descendants(proc.pid) if "fluidswarm.recording.recorder" in cmdline(p)[1:3]]
+        assert len(recorders) == 1
+        os.kill(recorders[0], signal.SIGKILL)
+        proc.wait(30)
+        err = [line for line in proc.stderr.read().strip().splitlines() if not line.startswith("live: ")]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    print(f"exit {proc.returncode}, live step {seen} before the kill: {err}")
+    assert proc.returncode != 0 and any("lost the recorder" in line for line in err)
+    said = [line for line in err if "was killed by signal 9 (SIGKILL) before finishing" in line]
+    assert len(said) == 1 and str(path) in said[0] and "rewritten finished" in said[0]
+    assert finished(path)
+    run = load_run(path, images=False)
+    assert not run.truncated and run.frames and run.frames[0].step == 0
 
 
 def test_two_agents_frozen_for_3_s_rejoin_and_all_30_finish(tmp_path):

@@ -12,8 +12,9 @@ import pytest
 from agent.protocol.errors import UserError
 from fluidswarm.cli import main
 from fluidswarm.recording.reader import completeness, load_run
-from fluidswarm.recording.recover import salvage
+from fluidswarm.recording.recover import after_recorder, salvage
 from fluidswarm.recording.writer import RunWriter
+from swarmhost.helpers import describe_exit
 
 
 def write_steps(w: RunWriter, steps, n: int = 5) -> None:
@@ -89,3 +90,18 @@ def test_an_empty_or_foreign_file_is_one_line_naming_it(tmp_path, capsys):
     assert main(["replay", str(empty), "--recover"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "empty.mcap" in err[0]
+
+
+def test_after_a_recorder_killed_before_its_footer_the_run_rewrites_the_file_finished_and_names_the_kill(tmp_path):
+    path, dead = snapshot_after_kill(tmp_path)
+    assert after_recorder(path, 0) is None  # the usual end: nothing to say, the file untouched
+    note = after_recorder(dead, -9, describe_exit(-9), "fluidswarm record: stuck")
+    assert note is not None and "was killed by signal 9 (SIGKILL) (fluidswarm record: stuck) before finishing" in note
+    assert str(dead) in note and "rewritten finished" in note and "\n" not in note
+    run = load_run(dead)
+    assert not run.truncated and run.steps.tolist() == list(range(20))
+    note = after_recorder(
+        path, 1, describe_exit(1)
+    )  # a recorder that failed after writing its footer: named, the file left
+    assert note is not None and "exited with code 1 after finishing" in note
+    assert after_recorder(tmp_path / "never.mcap", -9) is None  # no file, nothing to rewrite

@@ -214,6 +214,7 @@ class Run:
         self._on_stop: list[Callable[[], None]] = []
         self._bar: Progress | None = None
         self._scratch: Path | None = None
+        self._notes: list[str] = []  # what the run learnt at its end (a recorder that ended badly)
 
     def __enter__(self) -> Self:
         o = self.options
@@ -248,6 +249,7 @@ class Run:
                 stop_process(self.coordinator)
         finally:
             codes = self.launcher.close()  # agents, then the recorder (the MCAP is complete after this)
+            self._recording_survives()
             if self._scratch is not None:
                 shutil.rmtree(self._scratch, ignore_errors=True)
         if exc_type is None and self.result is not None:
@@ -255,6 +257,21 @@ class Run:
             self.record = self._summarise(self.result)
             self._behind_real_time()
             self.kind.score(self)
+
+    def _recording_survives(self) -> None:
+        """A recorder that ended badly (killed, crashed, stuck past its stop) is named, and the file it left
+        without a footer rewritten finished (recording/recover.py after_recorder): on stderr at once, and in
+        the record's notes."""
+        from fluidswarm.recording.recover import after_recorder
+        from swarmhost.helpers import describe_exit
+
+        proc = self.launcher.recorder.proc
+        code = proc.returncode if proc is not None else None
+        how = describe_exit(code) if code is not None else ""
+        note = after_recorder(self.mcap, code, how, self.launcher.recorder.words)
+        if note is not None:
+            self._notes.append(note)
+            print(f"fluidswarm: {note}", file=sys.stderr, flush=True)
 
     def _derive_command_key(self) -> None:
         """A run with workers: its command key from the users file and a fresh salt (the workers derive the
@@ -456,7 +473,7 @@ class Run:
             mcap=str(self.mcap) if self.mcap else None,
             finals=finals,
             realtime_factor=la.pacer.realtime_factor(),
-            notes=list(la.pacer.notes),
+            notes=list(la.pacer.notes) + self._notes,
             lost_hosts=[dict(h) for h in la.pacer.lost_hosts],
             **robot_figures(self.mcap, plan.setup),
         )

@@ -49,7 +49,15 @@ class Recorder(StepAssembly):
 
     def __init__(self, run: str, writer: RunWriter, dt: float, contacts=None):
         super().__init__(run, writer, dt, contacts, time.monotonic())
-        self.inbox: queue.SimpleQueue = queue.SimpleQueue()
+        # queue.Queue, not SimpleQueue: CPython 3.11's SimpleQueue.get(timeout) can block for ever. When it takes
+        # its lock with the queue empty (a put released it for an item get_nowait took) after its deadline passed
+        # (the thread preempted that long), it waits again with a negative, i.e. infinite, timeout
+        # (Modules/_queuemodule.c, "Adjust timeout for next iteration"): a signal's handler runs and the wait
+        # resumes, so the recorder never saw its stop and was killed without its footer (CI of 1fd0e6b; gdb:
+        # sem_wait with no deadline, the SIGTERM handled). ~3 us a message more: one per batch of the relays. (The
+        # writer keeps SimpleQueue: close() and its puts must be safe in signal handlers, and close()'s put ends
+        # any such wait.)
+        self.inbox: queue.Queue = queue.Queue()
 
     # callbacks: decode nothing, enqueue
     def on_state(self, sample) -> None:

@@ -22,7 +22,7 @@ from typing import BinaryIO
 from mcap.exceptions import McapError
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
-from mcap.writer import CompressionType, IndexType, Writer
+from mcap.writer import MCAP0_MAGIC, CompressionType, IndexType, Writer
 
 # What a broken file can raise while its records are decoded (a truncated tail, garbage lengths, bad zstd)
 BROKEN = (McapError, EOFError, struct.error, ValueError, KeyError, IndexError, OverflowError, MemoryError, zlib.error)
@@ -169,3 +169,39 @@ def rewrite(path: str | os.PathLike, kept: Salvage) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def _ends_with_magic(path: Path) -> bool:
+    """The file ends with MCAP's magic: its writer wrote the footer (a cheap look at 8 bytes)."""
+    with open(path, "rb") as fh:
+        size = fh.seek(0, os.SEEK_END)
+        fh.seek(max(0, size - len(MCAP0_MAGIC)))
+        return size >= 2 * len(MCAP0_MAGIC) and fh.read() == MCAP0_MAGIC
+
+
+def after_recorder(path: str | os.PathLike | None, code: int | None, how: str = "", words: str = "") -> str | None:
+    """What a run says of its recording once its recorder has ended with exit `code` (`how`: that end in words,
+    swarmhost.helpers.describe_exit; `words`: its last line on stderr); None when it ended well with its file
+    finished. A recorder killed or crashed before its footer leaves a file only `salvage` can read: it is
+    rewritten finished with every whole record (the record survives its writer; the scores written as it
+    closes are lost) and the line says so, naming how the recorder ended."""
+    if path is None or code is None or not Path(path).is_file():
+        return None
+    path = Path(path)
+    said = f" ({words[:200]})" if words else ""
+    how = how or f"exited with code {code}"
+    try:
+        if code == 0 and _ends_with_magic(path):
+            return None  # the usual end, told without reading the file through
+        kept = salvage(path)
+        if kept.finished:
+            return None if code == 0 else f"the recorder {how}{said} after finishing {path}"
+        rewrite(path, kept)
+    except McapError as exc:
+        return f"the recorder {how}{said}: {path} is not a recording ({exc})"
+    except OSError as exc:
+        return f"the recorder {how}{said} before finishing {path}, which could not be rewritten ({exc.strerror or exc})"
+    return (
+        f"the recorder {how}{said} before finishing {path}: rewritten finished with its {len(kept.messages)} whole "
+        f"messages ({kept.bytes_dropped} bytes of a cut record dropped; its closing scores were never written)"
+    )
