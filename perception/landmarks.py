@@ -24,6 +24,9 @@ from perception.models import run_model
 
 PALM_MODEL = "palm_detection_lite.tflite"
 LANDMARK_MODEL = "hand_landmark_lite.tflite"
+# MediaPipe's larger landmark model (the same 0.10.21 wheel, the same inputs and outputs; ~2x a lite pass): it reads
+# a hand the two classifiers disagree on (hand_detector.full_pose)
+FULL_LANDMARK_MODEL = "hand_landmark_full.tflite"
 PALM_SIZE = 192
 LANDMARK_SIZE = 224
 PALM_SCORE = 0.3  # below MediaPipe's 0.5: a palm in clutter scores lower; the presence score decides
@@ -180,7 +183,7 @@ def _crop_matrix(box: tuple[float, float, float, float], size: int) -> np.ndarra
 
 
 def landmarks_in(
-    image_bgr: np.ndarray, box: tuple[float, float, float, float], mirrored: bool = False
+    image_bgr: np.ndarray, box: tuple[float, float, float, float], mirrored: bool = False, model: str = LANDMARK_MODEL
 ) -> HandLandmarks:
     """The landmark model on the rotated square `box` of the picture (`mirrored`: on its mirror image, the
     landmarks mirrored back: the model reads a left and a right hand, so this is a second, different look)."""
@@ -190,7 +193,7 @@ def landmarks_in(
     crop = cv2.cvtColor(crop, cv2.COLOR_BGR2RGB)
     if mirrored:
         crop = np.ascontiguousarray(crop[:, ::-1])
-    pts, flag = run_model(LANDMARK_MODEL, crop, ("Identity", "Identity_1"))
+    pts, flag = run_model(model, crop, ("Identity", "Identity_1"))
     xyz = pts.reshape(21, 3).astype(np.float32)
     if mirrored:
         xyz[:, 0] = LANDMARK_SIZE - xyz[:, 0]
@@ -223,7 +226,11 @@ def landmark_box(points: np.ndarray) -> tuple[float, float, float, float]:
 
 
 def rereadings(
-    image_bgr: np.ndarray, points: np.ndarray, scales: tuple[float, ...] = REREAD_SCALES, mirrored: bool = True
+    image_bgr: np.ndarray,
+    points: np.ndarray,
+    scales: tuple[float, ...] = REREAD_SCALES,
+    mirrored: bool = True,
+    model: str = LANDMARK_MODEL,
 ) -> list[HandLandmarks]:
     """The same hand read again in other crops round its landmarks `points` (test-time augmentation): the
     tracking box (`landmark_box`) mirrored (unless `mirrored` is False), and that box REREAD_SCALES times its
@@ -231,9 +238,9 @@ def rereadings(
     half-seen hand move (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts
     only if every rereading gives it). mirrored + len(scales) landmark passes (~4 ms each)."""
     cx, cy, side, rotation = landmark_box(points)
-    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), mirrored=True)] if mirrored else []
+    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), True, model)] if mirrored else []
     for scale in scales:
-        out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation)))
+        out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation), model=model))
     return out
 
 

@@ -1,9 +1,10 @@
 """The learned models shipped in the package (perception/data/models), run on the CPU.
 
-The three TensorFlow Lite files are MediaPipe's (Apache-2.0, perception/data/models/LICENSE-mediapipe.txt),
+The four TensorFlow Lite files are MediaPipe's (Apache-2.0, perception/data/models/LICENSE-mediapipe.txt),
 copied unchanged from the mediapipe 0.10.21 wheel on PyPI, the last release that bundled them:
-`palm_detection_lite.tflite` and `hand_landmark_lite.tflite` (the hand landmarker's two stages) and
-`selfie_segmentation.tflite` (a person's silhouette). Nothing is fetched at run time (README, "Dependencies":
+`palm_detection_lite.tflite` and `hand_landmark_lite.tflite` (the hand landmarker's two stages),
+`hand_landmark_full.tflite` (its larger landmark model, read where the two classifiers disagree:
+hand_detector.full_pose) and `selfie_segmentation.tflite` (a person's silhouette). Nothing is fetched at run time (README, "Dependencies":
 why not mediapipe itself).
 
 Two runners, one answer (`run_model`: the same outputs within float rounding, tests/test_perception_models.py):
@@ -34,6 +35,7 @@ MODELS_DIR = Path(__file__).resolve().parent / "data" / "models"
 SHA256 = {
     "palm_detection_lite.tflite": "e9a4aaddf90dda56a87235303cf00e4c2d3fb28725f68fd88772997dac905c18",
     "hand_landmark_lite.tflite": "048edd3645c9bf7397d19a9f6e3a42957d6e414c9bea6598030a2e9b624156e6",
+    "hand_landmark_full.tflite": "11c272b891e1a99ab034208e23937a8008388cf11ed2a9d776ed3d01d0ba00e3",
     "selfie_segmentation.tflite": "9ee168ec7c8f2a16c56fe8e1cfbc514974cbbb7e434051b455635f1bd1462f5c",
 }
 RUNNERS = ("litert", "opencv")

@@ -146,8 +146,9 @@ def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_han
     the hand's when every rereading in another crop (mirrored, smaller, larger box) gives it with all votes
     and its landmarks barely move: a held-out 4 and a 5 on noise are found and named right, and refused
     without the rereadings. A held-out 1 on a skin wall whose landmarks say 2 is still refused (its
-    rereadings say otherwise), and so is a held-out 2 on noise whose rereadings all say 2 but whose
-    landmarks move (fitted to a smaller hand than the one shown: its silhouette's IoU is 0.40)."""
+    rereadings say otherwise), and so would be a held-out 2 on noise whose rereadings all say 2 but whose
+    landmarks move (fitted to a smaller hand than the one shown: its silhouette's IoU is 0.40): the full landmark
+    model names it a 2 since session 12."""
     import perception.hand_detector as hd
 
     steady = hd.steady_pose
@@ -157,23 +158,57 @@ def test_a_disagreement_is_the_landmarks_class_only_when_it_is_steady(shared_han
         assert hand.label == str(cls)
         assert iou(hand.mask, truth) >= 0.7  # measured 0.74 and 0.79: the silhouette GrabCut cut, as before
         monkeypatch.setattr(hd, "steady_pose", lambda *a, **k: False)
+        monkeypatch.setattr(hd, "full_pose", lambda *a: None)  # session 12's reading, below
         with pytest.raises(NoHandError, match=f"two readings differ \\(silhouette: [^{cls}], landmarks: {cls}\\)"):
             find_hand(frame, clf)
-        monkeypatch.setattr(hd, "steady_pose", steady)
+        monkeypatch.undo()
     poses = hd.poses_for(clf)
     # these two photographs are cut through the palm: set on the bottom edge, their wrists below the frame
     frame, _ = composite(held_out(shared_hands, 1), "skin", 1, forearm=False)
     with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 1, landmarks: 2\\)"):
         find_hand(frame, clf)
     frame, _ = composite(held_out(shared_hands, 2), "noise", 2, forearm=False)
-    with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 6, landmarks: 2\\)"):
-        find_hand(frame, clf)
     lm = find_landmarks(frame)[0]
     again = hd.rereadings(frame, lm.points)
     assert [poses.predict(a.points) for a in again] == [("2", 1.0)] * 3
     moved = np.mean([np.linalg.norm(a.points - lm.points, axis=1).mean() for a in again]) / lm.palm_length()
     assert moved > hd.STEADY_MOVE, moved
     assert not steady(frame, lm, poses, "2")
+    # not steady, so refused by the lite landmarks' rules; the full landmark model reads it a 2 (full_pose, below)
+    assert find_hand(frame, clf).label == "2"
+    monkeypatch.setattr(hd, "full_pose", lambda *a: None)
+    with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 6, landmarks: 2\\)"):
+        find_hand(frame, clf)
+
+
+def test_a_disagreement_the_full_landmark_model_reads_steadily_is_its_class(shared_hands, clf, monkeypatch):
+    """Where the two classifiers disagree and the lite landmarks are not steady, MediaPipe's full landmark
+    model reads the hand in the tracking box, mirrored and in the 0.85 crop: when all three find it and all
+    their nearest training hands vote for one class, that is the hand's (issue 50 session 12). Held-out 6, 2
+    and 4 on noise, refused before, are named right; a held-out 1 on noise whose full readings do not agree
+    stays refused; hand-free rooms stay hand-free (test_rooms_without_a_hand_are_never_a_hand)."""
+    import perception.hand_detector as hd
+    from perception.landmarks import FULL_LANDMARK_MODEL, landmarks_in
+
+    poses = hd.poses_for(clf)
+    full_pose = hd.full_pose
+    for cls, seed in ((6, 1), (2, 3), (4, 3)):
+        frame, truth = composite(held_out(shared_hands, cls), "noise", seed)
+        hand = find_hand(frame, clf)
+        assert hand.label == str(cls) and iou(hand.mask, truth) >= 0.5
+        lm = find_landmarks(frame)[0]
+        assert full_pose(frame, lm, poses) == str(cls)
+        # the full model's own reading in the tracking box: the hand, all votes for its class
+        full = landmarks_in(frame, hd.landmark_box(lm.points), model=FULL_LANDMARK_MODEL)
+        assert full.presence >= hd.PRESENCE and poses.predict(full.points) == (str(cls), 1.0)
+        monkeypatch.setattr(hd, "full_pose", lambda *a: None)
+        with pytest.raises(NoHandError, match="two readings differ"):
+            find_hand(frame, clf)
+        monkeypatch.undo()
+    frame, _ = composite(held_out(shared_hands, 1), "noise", 1)
+    assert full_pose(frame, find_landmarks(frame)[0], poses) is None
+    with pytest.raises(NoHandError, match="two readings differ \\(silhouette: 1, landmarks: 2\\)"):
+        find_hand(frame, clf)
 
 
 def test_an_agreement_that_does_not_hold_mirrored_is_refused(shared_hands, clf, monkeypatch):
