@@ -4,8 +4,8 @@ The four TensorFlow Lite files are MediaPipe's (Apache-2.0, perception/data/mode
 copied unchanged from the mediapipe 0.10.21 wheel on PyPI, the last release that bundled them:
 `palm_detection_lite.tflite` and `hand_landmark_lite.tflite` (the hand landmarker's two stages),
 `hand_landmark_full.tflite` (its larger landmark model, read where the two classifiers disagree:
-hand_detector.full_pose) and `selfie_segmentation.tflite` (a person's silhouette). Nothing is fetched at run time (README, "Dependencies":
-why not mediapipe itself).
+hand_detector.full_pose) and `selfie_segmentation.tflite` (a person's silhouette). Nothing is fetched at run
+time (README, "Dependencies": why not mediapipe itself).
 
 Two runners, one answer (`run_model`: the same outputs within float rounding, tests/test_perception_models.py):
 - "litert" (the default where it is installed): Google's LiteRT interpreter (`ai-edge-litert`, the TFLite
