@@ -48,15 +48,7 @@ from perception.eigen import EigenClassifier
 from perception.features import hand_hog
 from perception.hand_pose import PoseClassifier, pose_classifier
 from perception.hand_silhouette import clean_crop, silhouette
-from perception.landmarks import (
-    FULL_LANDMARK_MODEL,
-    PRESENCE,
-    HandLandmarks,
-    find_landmarks,
-    landmark_box,
-    landmarks_in,
-    rereadings,
-)
+from perception.landmarks import FULL_LANDMARK_MODEL, PRESENCE, HandLandmarks, find_landmarks, reread, rereadings
 
 # Of the hand's box (the landmarks' bounding box): a silhouette covering less of it is GrabCut losing the
 # hand (a hand's silhouette covers 35-70 % of its landmarks' box; fingers spread: the least).
@@ -217,16 +209,12 @@ def found_again(frame_bgr: np.ndarray, lm: HandLandmarks) -> bool:
 
 def full_pose(frame_bgr: np.ndarray, lm: HandLandmarks, poses: PoseClassifier) -> str | None:
     """The class MediaPipe's full landmark model (landmarks.FULL_LANDMARK_MODEL) names steadily for the hand
-    `lm`, else None: read in the tracking box, mirrored, and in the 0.85 crop (STEADY_SCALES), each reading
+    `lm`, else None: read mirrored, in the tracking box, and in the 0.85 crop (STEADY_SCALES), each reading
     finds the hand and its NEIGHBOURS nearest training hands all vote for one class, the same in all three.
     Up to three passes of the full model (~2x a lite pass each), on disagreements only; stops at the first
     reading that does not hold."""
-    cx, cy, side, rotation = landmark_box(lm.points)
-    boxes = [((cx, cy, side, rotation), False), ((cx, cy, side, rotation), True)]
-    boxes += [((cx, cy, side * scale, rotation), False) for scale in STEADY_SCALES]
     named = None
-    for box, mirrored in boxes:
-        again = landmarks_in(frame_bgr, box, mirrored, FULL_LANDMARK_MODEL)
+    for again in reread(frame_bgr, lm.points, (1.0, *STEADY_SCALES), model=FULL_LANDMARK_MODEL):
         if again.presence < PRESENCE:
             return None
         pose, votes = poses.predict(again.points)

@@ -15,6 +15,7 @@ Landmark numbering (MediaPipe's): 0 wrist; thumb 1-4; index 5-8; middle 9-12; ri
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import cv2
@@ -237,11 +238,22 @@ def rereadings(
     size. A hand's landmarks barely move between them; landmarks the model fitted to a wall's pattern or to a
     half-seen hand move (see hand_detector.py: where its two classifiers disagree, the landmarks' class counts
     only if every rereading gives it). mirrored + len(scales) landmark passes (~4 ms each)."""
+    return list(reread(image_bgr, points, scales, mirrored, model))
+
+
+def reread(
+    image_bgr: np.ndarray,
+    points: np.ndarray,
+    scales: tuple[float, ...] = REREAD_SCALES,
+    mirrored: bool = True,
+    model: str = LANDMARK_MODEL,
+) -> Iterator[HandLandmarks]:
+    """`rereadings` one pass at a time, for a caller that stops at the first reading that does not hold."""
     cx, cy, side, rotation = landmark_box(points)
-    out = [landmarks_in(image_bgr, (cx, cy, side, rotation), True, model)] if mirrored else []
+    if mirrored:
+        yield landmarks_in(image_bgr, (cx, cy, side, rotation), True, model)
     for scale in scales:
-        out.append(landmarks_in(image_bgr, (cx, cy, side * scale, rotation), model=model))
-    return out
+        yield landmarks_in(image_bgr, (cx, cy, side * scale, rotation), model=model)
 
 
 def find_landmarks(image_bgr: np.ndarray, min_presence: float = PRESENCE) -> list[HandLandmarks]:

@@ -188,7 +188,7 @@ def test_a_disagreement_the_full_landmark_model_reads_steadily_is_its_class(shar
     and 4 on noise, refused before, are named right; a held-out 1 on noise whose full readings do not agree
     stays refused; hand-free rooms stay hand-free (test_rooms_without_a_hand_are_never_a_hand)."""
     import perception.hand_detector as hd
-    from perception.landmarks import FULL_LANDMARK_MODEL, landmarks_in
+    from perception.landmarks import FULL_LANDMARK_MODEL, landmark_box, landmarks_in
 
     poses = hd.poses_for(clf)
     full_pose = hd.full_pose
@@ -199,7 +199,7 @@ def test_a_disagreement_the_full_landmark_model_reads_steadily_is_its_class(shar
         lm = find_landmarks(frame)[0]
         assert full_pose(frame, lm, poses) == str(cls)
         # the full model's own reading in the tracking box: the hand, all votes for its class
-        full = landmarks_in(frame, hd.landmark_box(lm.points), model=FULL_LANDMARK_MODEL)
+        full = landmarks_in(frame, landmark_box(lm.points), model=FULL_LANDMARK_MODEL)
         assert full.presence >= hd.PRESENCE and poses.predict(full.points) == (str(cls), 1.0)
         monkeypatch.setattr(hd, "full_pose", lambda *a: None)
         with pytest.raises(NoHandError, match="two readings differ"):
