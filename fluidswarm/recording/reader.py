@@ -28,17 +28,17 @@ import cv2
 import numpy as np
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap.writer import MCAP0_MAGIC
 from zstandard import ZstdError
 
 from agent.protocol.errors import UserError
 from coordinator.control.fidelity import Fidelity
 from coordinator.control.geometry import ImageToDomain
 from fluidswarm.recording import schemas as sc
-from fluidswarm.recording.recover import Salvage, salvage, salvage_stream
+from fluidswarm.recording.recover import Salvage, ends_with_magic, salvage, salvage_stream
 from fluidswarm.recording.steps import LEFT
 from fluidswarm.recording.writer import JSON_KEYS
 
-_MAGIC = b"\x89MCAP0\r\n"
 _PNG = b"\x89PNG\r\n\x1a\n"
 _MAX_MASK_PIXELS = 1 << 26  # a target mask (an input image's size) of at most 8192 x 8192 pixels
 # What the mcap reader raises on a damaged file: its own errors, the struct/record decoding's, and what it lets
@@ -243,15 +243,11 @@ def finished(path: Path) -> bool:
 
 def _finished(fh: BinaryIO, path: Path) -> bool:
     """`finished` of the open, seekable file `fh` (named `path` in the error); leaves it at its start."""
-    size = fh.seek(0, os.SEEK_END)
     fh.seek(0)
-    head = fh.read(len(_MAGIC))
-    fh.seek(max(0, size - len(_MAGIC)))
-    tail = fh.read(len(_MAGIC))
-    fh.seek(0)
-    if head != _MAGIC:
-        raise UserError(f"{path}: not an MCAP file" + (" (empty: its writer died before writing)" if size == 0 else ""))
-    return tail == _MAGIC and size >= 2 * len(_MAGIC)
+    head = fh.read(len(MCAP0_MAGIC))
+    if head != MCAP0_MAGIC:
+        raise UserError(f"{path}: not an MCAP file" + (" (empty: its writer died before writing)" if not head else ""))
+    return ends_with_magic(fh)
 
 
 def _open_checked(path: Path):

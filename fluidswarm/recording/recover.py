@@ -171,12 +171,14 @@ def rewrite(path: str | os.PathLike, kept: Salvage) -> Path:
     return path
 
 
-def _ends_with_magic(path: Path) -> bool:
-    """The file ends with MCAP's magic: its writer wrote the footer (a cheap look at 8 bytes)."""
-    with open(path, "rb") as fh:
-        size = fh.seek(0, os.SEEK_END)
-        fh.seek(max(0, size - len(MCAP0_MAGIC)))
-        return size >= 2 * len(MCAP0_MAGIC) and fh.read() == MCAP0_MAGIC
+def ends_with_magic(fh: BinaryIO) -> bool:
+    """The open, seekable file `fh` ends with MCAP's magic after at least its opening one: its writer wrote the
+    footer (a look at 8 bytes; leaves `fh` at its start)."""
+    size = fh.seek(0, os.SEEK_END)
+    fh.seek(max(0, size - len(MCAP0_MAGIC)))
+    tail = fh.read(len(MCAP0_MAGIC))
+    fh.seek(0)
+    return size >= 2 * len(MCAP0_MAGIC) and tail == MCAP0_MAGIC
 
 
 def after_recorder(path: str | os.PathLike | None, code: int | None, how: str = "", words: str = "") -> str | None:
@@ -191,8 +193,9 @@ def after_recorder(path: str | os.PathLike | None, code: int | None, how: str = 
     said = f" ({words[:200]})" if words else ""
     how = how or f"exited with code {code}"
     try:
-        if code == 0 and _ends_with_magic(path):
-            return None  # the usual end, told without reading the file through
+        with open(path, "rb") as fh:
+            if code == 0 and ends_with_magic(fh):
+                return None  # the usual end, told without reading the file through
         kept = salvage(path)
         if kept.finished:
             return None if code == 0 else f"the recorder {how}{said} after finishing {path}"
